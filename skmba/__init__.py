@@ -1,0 +1,12 @@
+"""skmba: modular Bayesian model calibration and sensor design.
+
+A scikit-learn compatible implementation of the modular Bayesian approach
+(MBA) to the calibration of physics-based models, with multi-response
+Gaussian processes as emulators and discrepancy models.
+"""
+
+from skmba._gp import MultiResponseGP
+
+__version__ = "0.1.0.dev0"
+
+__all__ = ["MultiResponseGP", "__version__"]

@@ -1,0 +1,3 @@
+"""Reference problems of the thesis as dataset generators."""
+
+__all__: list[str] = []
