@@ -1,0 +1,624 @@
+r"""DACE correlation functions as scikit-learn kernels.
+
+The seven correlation families of the DACE toolbox (thesis Table 3.2,
+Eq. 3.6) are implemented as subclasses of
+:class:`sklearn.gaussian_process.kernels.Kernel`.  All of them are products
+over the ``d`` input dimensions of a one-dimensional correlation,
+
+.. math::
+
+    R(\omega, x, x') = \prod_{j=1}^{d} R_j(\omega_j, \Delta_j),
+    \qquad \Delta_j = x_j - x'_j,
+
+with one *roughness* parameter :math:`\omega_j > 0` per input dimension
+(anisotropic) or a single shared one (isotropic).  A larger roughness means a
+faster decay of the correlation, i.e. a rougher process.  With
+:math:`\zeta_j = \omega_j |\Delta_j|` the families are
+
+- :class:`Exp`: :math:`\exp(-\omega_j |\Delta_j|)`; ω in 1/L.
+- :class:`GeneralizedExp`: :math:`\exp(-\omega_j |\Delta_j|^p)` with one
+  shared power :math:`0 < p \le 2`; ω in 1/L^p.
+- :class:`Gauss`: :math:`\exp(-\omega_j \Delta_j^2)`; ω in 1/L².
+- :class:`Linear`: :math:`\max(0, 1 - \zeta_j)`; ω in 1/L.
+- :class:`Spherical`: :math:`1 - 1.5 z + 0.5 z^3`,
+  :math:`z = \min(1, \zeta_j)`; ω in 1/L.
+- :class:`Cubic`: :math:`1 - 3 z^2 + 2 z^3`, :math:`z = \min(1, \zeta_j)`;
+  ω in 1/L.
+- :class:`Spline`: :math:`\varsigma(\zeta_j)`; ω in 1/L.
+
+where L is the unit of the inputs and the spline is
+
+.. math::
+
+    \varsigma(\zeta) = \begin{cases}
+        1 - 15\zeta^2 + 30\zeta^3 & 0 \le \zeta \le 0.2 \\
+        1.25 (1 - \zeta)^3          & 0.2 < \zeta < 1 \\
+        0                           & \zeta \ge 1.
+    \end{cases}
+
+``Linear``, ``Spherical``, ``Cubic`` and ``Spline`` have compact support:
+the correlation is exactly zero once :math:`\omega_j |\Delta_j| \ge 1`.
+
+Positive definiteness: a product of one-dimensional positive-definite
+correlations, each acting on its own coordinate, is positive definite in any
+dimension (Schur product theorem).  The profiles of ``Exp``,
+``GeneralizedExp``, ``Gauss``, ``Linear``, ``Spherical`` and ``Spline`` are
+positive definite on the real line, hence so are their products.  (Used as
+*radial* functions of the Euclidean distance, ``Linear`` and ``Spline`` are
+only guaranteed positive definite in one dimension and ``Spherical`` up to
+three.)  The ``Cubic`` profile is **not** positive definite, not even in one
+dimension: its Fourier transform :math:`12(1-\cos k)/k^4 - 6\sin k/k^3` takes
+negative values, and correlation matrices on dense point sets can have
+negative eigenvalues.  It is provided for compatibility with DACE; use it
+with a nugget (``noise=True``) or prefer ``Spline``.
+
+Relation to scikit-learn's length scales
+----------------------------------------
+``Gauss(roughness=w)`` equals ``RBF(length_scale=l)`` with
+:math:`\omega = 1 / (2 l^2)`, i.e. :math:`l = 1/\sqrt{2\omega}`; the
+gradients are related by :math:`\partial/\partial\log\omega =
+-\tfrac12\,\partial/\partial\log l`.  In one dimension ``Exp(roughness=w)``
+equals ``Matern(length_scale=1/w, nu=0.5)``; in several dimensions the DACE
+product uses the L1 distance whereas ``Matern`` uses the Euclidean one.
+
+Hyperparameters and gradients
+-----------------------------
+As for every scikit-learn kernel, ``theta`` holds the natural logarithm of
+the non-fixed hyperparameters and ``__call__(X, eval_gradient=True)``
+returns the analytic derivative of ``K`` with respect to ``theta``, i.e.
+:math:`\omega_j \partial K / \partial \omega_j` (and
+:math:`p\, \partial K / \partial p` for ``GeneralizedExp``).  Where a
+profile is not differentiable in :math:`\zeta` (``Linear`` at
+:math:`\zeta = 1`) the one-sided derivative that is zero outside the
+support is used, so pairs exactly at the edge of the support contribute no
+gradient.  ``Spherical``, ``Cubic`` and ``Spline`` are continuously
+differentiable at :math:`\zeta = 1` (and the spline at its breakpoint
+:math:`\zeta = 0.2`), so no convention is needed there.  For ``Exp`` the
+kink at :math:`\Delta = 0` is in the inputs, not in :math:`\omega`; the
+log-roughness derivative is zero there.
+
+All kernels are normalised (unit diagonal), so they are correlations: the
+process variances are estimated separately (``sigma2_`` of
+``MultiResponseGP``).  :func:`check_correlation` verifies that property for
+any kernel, including products with scikit-learn kernels.
+"""
+
+import numpy as np
+from sklearn.gaussian_process.kernels import (
+    Hyperparameter,
+    Kernel,
+    NormalizedKernelMixin,
+    StationaryKernelMixin,
+)
+
+__all__ = [
+    "Cubic",
+    "Exp",
+    "Gauss",
+    "GeneralizedExp",
+    "Linear",
+    "Spherical",
+    "Spline",
+    "check_correlation",
+]
+
+
+def _leave_one_out_products(R):
+    """Products over the last axis leaving out each entry in turn.
+
+    Returns ``P`` with ``P[..., j] = prod_{k != j} R[..., k]``, computed from
+    prefix and suffix cumulative products (no division, so exact zeros of
+    compactly supported correlations are handled).
+    """
+    out = np.ones_like(R)
+    if R.shape[-1] > 1:
+        np.cumprod(R[..., :-1], axis=-1, out=out[..., 1:])
+        suffix = np.cumprod(R[..., :0:-1], axis=-1)[..., ::-1]
+        out[..., :-1] *= suffix
+    return out
+
+
+class _DACECorrelation(StationaryKernelMixin, NormalizedKernelMixin, Kernel):
+    """Shared machinery of the product-form DACE correlation families.
+
+    A family defines the scaled distance ``_zeta(absdiff, roughness)``
+    (default ``roughness * |Δ|``, linear in the roughness), the profile
+    ``_profile(zeta)`` and its derivative ``_profile_derivative(zeta)``.
+    Families with extra hyperparameters add ``_extra_log_gradients``.
+    """
+
+    def __init__(self, roughness=1.0, roughness_bounds=(1e-5, 1e5)):
+        self.roughness = roughness
+        self.roughness_bounds = roughness_bounds
+
+    @property
+    def anisotropic(self):
+        """bool: whether one roughness per input dimension is used."""
+        return bool(np.iterable(self.roughness) and len(self.roughness) > 1)
+
+    @property
+    def hyperparameter_roughness(self):
+        """Hyperparameter: specification of ``roughness``."""
+        if self.anisotropic:
+            return Hyperparameter(
+                "roughness", "numeric", self.roughness_bounds, len(self.roughness)
+            )
+        return Hyperparameter("roughness", "numeric", self.roughness_bounds)
+
+    # -- family hooks -------------------------------------------------------
+    #: True for profiles exp(-ζ), whose product and gradient have a fast form.
+    _exponential = False
+
+    def _validate_params(self):
+        """Check family-specific parameters at call time (default: none)."""
+
+    def _zeta(self, absdiff, roughness):
+        """Scaled distance; must be proportional to ``roughness``."""
+        return absdiff * roughness
+
+    @staticmethod
+    def _profile(zeta):  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    @staticmethod
+    def _profile_derivative(zeta):  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def _extra_log_gradients(self, absdiff, zeta, dprofile):
+        """Per-dimension log-derivatives of ``R_j`` w.r.t. other parameters.
+
+        Returns a dict mapping a hyperparameter name to an array of shape
+        ``(n, n, d)`` holding ``θ ∂R_j/∂θ``.
+        """
+        return {}
+
+    # -- shared machinery ---------------------------------------------------
+    def _check_roughness(self, n_features):
+        roughness = np.squeeze(np.asarray(self.roughness, dtype=float))
+        if roughness.ndim > 1:
+            raise ValueError(
+                "roughness must be a scalar or a 1-D array, got an array of "
+                f"shape {np.shape(self.roughness)}."
+            )
+        if roughness.ndim == 1 and roughness.shape[0] != n_features:
+            raise ValueError(
+                f"roughness has {roughness.shape[0]} elements but X has "
+                f"{n_features} columns; pass a scalar roughness (isotropic) or "
+                "one value per column of X (anisotropic)."
+            )
+        if not np.all(np.isfinite(roughness)) or np.any(roughness <= 0):
+            raise ValueError(
+                f"roughness must be finite and positive, got {self.roughness!r}."
+            )
+        return roughness
+
+    def __call__(self, X, Y=None, eval_gradient=False):
+        """Return the correlation matrix k(X, Y) and optionally its gradient.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples_X, n_features)
+            Left argument of the returned kernel k(X, Y).
+        Y : array-like of shape (n_samples_Y, n_features), default=None
+            Right argument of the returned kernel k(X, Y). If None, k(X, X)
+            is evaluated instead.
+        eval_gradient : bool, default=False
+            Whether to also return the gradient with respect to the log of
+            the non-fixed hyperparameters. Only supported when Y is None.
+
+        Returns
+        -------
+        K : ndarray of shape (n_samples_X, n_samples_Y)
+            Correlation matrix k(X, Y).
+        K_gradient : ndarray of shape (n_samples_X, n_samples_X, n_dims)
+            Analytic gradient of k(X, X) with respect to ``theta`` (log of
+            the non-fixed hyperparameters, in the order of
+            ``hyperparameters``). Only returned when ``eval_gradient`` is
+            True.
+        """
+        X = np.atleast_2d(np.asarray(X, dtype=float))
+        if Y is None:
+            Y = X
+        else:
+            if eval_gradient:
+                raise ValueError("Gradient can only be evaluated when Y is None.")
+            Y = np.atleast_2d(np.asarray(Y, dtype=float))
+            if Y.shape[1] != X.shape[1]:
+                raise ValueError(
+                    f"X and Y must have the same number of columns, got "
+                    f"{X.shape[1]} and {Y.shape[1]}."
+                )
+        absdiff = np.abs(X[:, np.newaxis, :] - Y[np.newaxis, :, :])
+        return self._from_differences(absdiff, eval_gradient)
+
+    def _from_differences(self, absdiff, eval_gradient=False):
+        """The correlation (and gradient) from ``|X_i - Y_j|`` per dimension.
+
+        ``absdiff`` has shape (n, m, d) and is not modified, so a caller that
+        evaluates many hyperparameters on the same points (likelihood
+        optimisation) computes it once.
+        """
+        self._validate_params()
+        roughness = self._check_roughness(absdiff.shape[2])
+        zeta = self._zeta(absdiff, roughness)
+        if self._exponential:
+            # prod_j exp(-ζ_j) = exp(-sum_j ζ_j): one exp instead of d, and
+            # prod_{k≠j} R_k · R_j'(ζ_j) = -K, so no leave-one-out products.
+            K = zeta.sum(axis=2)
+            np.negative(K, out=K)
+            np.exp(K, out=K)
+        else:
+            R = self._profile(zeta)
+            K = np.prod(R, axis=2)
+        if not eval_gradient:
+            return K
+
+        n = absdiff.shape[0]
+        free = [hp for hp in self.hyperparameters if not hp.fixed]
+        if not free:
+            return K, np.empty((n, n, 0))
+
+        # zeta is proportional to roughness, so ω ∂R_j/∂ω_j = ζ_j f'(ζ_j).
+        if self._exponential:
+            # f' = -f: fold the sign into the product and skip a temporary.
+            others, dprofile = -K[..., np.newaxis], 1.0
+            per_dim = {"roughness": zeta}
+        else:
+            others = _leave_one_out_products(R)
+            dprofile = self._profile_derivative(zeta)
+            per_dim = {"roughness": zeta * dprofile}
+        per_dim.update(self._extra_log_gradients(absdiff, zeta, dprofile))
+
+        slices = []
+        for hp in free:
+            grad = others * per_dim[hp.name]
+            # A scalar hyperparameter shared by all dimensions: sum rule.
+            if hp.name != "roughness" or not self.anisotropic:
+                grad = grad.sum(axis=2, keepdims=True)
+            slices.append(grad)
+        if len(slices) == 1:
+            return K, slices[0]
+        return K, np.concatenate(slices, axis=2)
+
+    def __repr__(self):
+        name = self.__class__.__name__
+        if self.anisotropic:
+            values = ", ".join(f"{w:.3g}" for w in self.roughness)
+            return f"{name}(roughness=[{values}])"
+        return f"{name}(roughness={np.ravel(self.roughness)[0]:.3g})"
+
+
+class _ExponentialProfile(_DACECorrelation):
+    """Families with profile ``exp(-ζ)``; they differ only in ``ζ``."""
+
+    _exponential = True
+
+    @staticmethod
+    def _profile(zeta):
+        return np.exp(-zeta)
+
+    @staticmethod
+    def _profile_derivative(zeta):
+        return -np.exp(-zeta)
+
+
+class Exp(_ExponentialProfile):
+    """Exponential correlation ``prod_j exp(-ω_j |Δ_j|)``.
+
+    Parameters
+    ----------
+    roughness : float or array-like of shape (n_features,), default=1.0
+        Roughness ω (units 1/length). A scalar gives an isotropic kernel, an
+        array one roughness per input dimension.
+    roughness_bounds : pair of floats > 0 or "fixed", default=(1e-5, 1e5)
+        Bounds on ``roughness`` for hyperparameter optimisation.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skmba.kernels import Exp
+    >>> np.round(Exp(roughness=2.0)(np.array([[0.0], [0.5]])), 4)
+    array([[1.    , 0.3679],
+           [0.3679, 1.    ]])
+    """
+
+
+class GeneralizedExp(_ExponentialProfile):
+    """Generalised exponential correlation ``prod_j exp(-ω_j |Δ_j|^p)``.
+
+    Parameters
+    ----------
+    roughness : float or array-like of shape (n_features,), default=1.0
+        Roughness ω (units 1/length^p). A scalar gives an isotropic kernel,
+        an array one roughness per input dimension.
+    roughness_bounds : pair of floats > 0 or "fixed", default=(1e-5, 1e5)
+        Bounds on ``roughness`` for hyperparameter optimisation.
+    power : float, default=1.0
+        Exponent p, shared by all dimensions; must satisfy 0 < p <= 2
+        (checked when the kernel is evaluated). p = 1 gives :class:`Exp`,
+        p = 2 gives :class:`Gauss`.
+    power_bounds : pair of floats > 0 or "fixed", default=(1e-2, 2.0)
+        Bounds on ``power`` for hyperparameter optimisation.
+
+    Notes
+    -----
+    The gradient with respect to ``log p`` is
+    ``p ∂R_j/∂p = -R_j ω_j |Δ_j|^p p log|Δ_j|``, taken as zero at Δ_j = 0
+    (the limit, using 0 log 0 = 0).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skmba.kernels import GeneralizedExp
+    >>> kernel = GeneralizedExp(roughness=1.0, power=1.5)
+    >>> kernel
+    GeneralizedExp(roughness=1, power=1.5)
+    >>> np.round(kernel(np.array([[0.0], [2.0]])), 4)
+    array([[1.    , 0.0591],
+           [0.0591, 1.    ]])
+    """
+
+    def __init__(
+        self,
+        roughness=1.0,
+        roughness_bounds=(1e-5, 1e5),
+        power=1.0,
+        power_bounds=(1e-2, 2.0),
+    ):
+        self.roughness = roughness
+        self.roughness_bounds = roughness_bounds
+        self.power = power
+        self.power_bounds = power_bounds
+
+    @property
+    def hyperparameter_power(self):
+        """Hyperparameter: specification of ``power``."""
+        return Hyperparameter("power", "numeric", self.power_bounds)
+
+    def _validate_params(self):
+        power = np.asarray(self.power, dtype=float)
+        if power.size != 1 or not (0.0 < float(power.ravel()[0]) <= 2.0):
+            raise ValueError(
+                f"power must be a scalar with 0 < power <= 2, got {self.power!r}."
+            )
+
+    def _power(self):
+        return float(np.ravel(self.power)[0])
+
+    def _zeta(self, absdiff, roughness):
+        return roughness * absdiff ** self._power()
+
+    def _extra_log_gradients(self, absdiff, zeta, dprofile):
+        log_abs = np.log(absdiff, out=np.zeros_like(absdiff), where=absdiff > 0)
+        return {"power": dprofile * zeta * log_abs * self._power()}
+
+    def __repr__(self):
+        base = super().__repr__()
+        return f"{base[:-1]}, power={self._power():.3g})"
+
+
+class Gauss(_ExponentialProfile):
+    """Gaussian correlation ``prod_j exp(-ω_j Δ_j²)``.
+
+    Identical to scikit-learn's ``RBF(length_scale=1/sqrt(2ω))``.
+
+    Parameters
+    ----------
+    roughness : float or array-like of shape (n_features,), default=1.0
+        Roughness ω (units 1/length²). A scalar gives an isotropic kernel, an
+        array one roughness per input dimension.
+    roughness_bounds : pair of floats > 0 or "fixed", default=(1e-5, 1e5)
+        Bounds on ``roughness`` for hyperparameter optimisation.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skmba.kernels import Gauss
+    >>> np.round(Gauss(roughness=2.0)(np.array([[0.0], [0.5]])), 4)
+    array([[1.    , 0.6065],
+           [0.6065, 1.    ]])
+    >>> Gauss(roughness=[1, 2])
+    Gauss(roughness=[1, 2])
+    """
+
+    def _zeta(self, absdiff, roughness):
+        zeta = np.square(absdiff)
+        zeta *= roughness
+        return zeta
+
+
+class Linear(_DACECorrelation):
+    """Linear correlation ``prod_j max(0, 1 - ω_j |Δ_j|)``.
+
+    Compactly supported.  At the edge of the support (ω_j |Δ_j| = 1) the
+    gradient uses the one-sided derivative from outside the support, i.e.
+    zero.
+
+    Parameters
+    ----------
+    roughness : float or array-like of shape (n_features,), default=1.0
+        Roughness ω (units 1/length). A scalar gives an isotropic kernel, an
+        array one roughness per input dimension.
+    roughness_bounds : pair of floats > 0 or "fixed", default=(1e-5, 1e5)
+        Bounds on ``roughness`` for hyperparameter optimisation.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skmba.kernels import Linear
+    >>> np.round(Linear(roughness=1.0)(np.array([[0.0], [0.25], [2.0]])), 4)
+    array([[1.  , 0.75, 0.  ],
+           [0.75, 1.  , 0.  ],
+           [0.  , 0.  , 1.  ]])
+    """
+
+    @staticmethod
+    def _profile(zeta):
+        return np.maximum(0.0, 1.0 - zeta)
+
+    @staticmethod
+    def _profile_derivative(zeta):
+        return np.where(zeta < 1.0, -1.0, 0.0)
+
+
+class Spherical(_DACECorrelation):
+    """Spherical correlation ``prod_j (1 - 1.5 ζ_j + 0.5 ζ_j³)``.
+
+    With ζ_j = min(1, ω_j |Δ_j|); compactly supported.
+
+    Parameters
+    ----------
+    roughness : float or array-like of shape (n_features,), default=1.0
+        Roughness ω (units 1/length). A scalar gives an isotropic kernel, an
+        array one roughness per input dimension.
+    roughness_bounds : pair of floats > 0 or "fixed", default=(1e-5, 1e5)
+        Bounds on ``roughness`` for hyperparameter optimisation.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skmba.kernels import Spherical
+    >>> np.round(Spherical(roughness=1.0)(np.array([[0.0], [0.5]])), 4)
+    array([[1.    , 0.3125],
+           [0.3125, 1.    ]])
+    """
+
+    @staticmethod
+    def _profile(zeta):
+        z = np.minimum(1.0, zeta)
+        return 1.0 - 1.5 * z + 0.5 * z**3
+
+    @staticmethod
+    def _profile_derivative(zeta):
+        return np.where(zeta < 1.0, 1.5 * zeta**2 - 1.5, 0.0)
+
+
+class Cubic(_DACECorrelation):
+    """Cubic correlation ``prod_j (1 - 3 ζ_j² + 2 ζ_j³)``.
+
+    With ζ_j = min(1, ω_j |Δ_j|); compactly supported.  Unlike the other
+    families this profile is not positive definite, not even in one
+    dimension (its Fourier transform changes sign), so correlation matrices
+    on dense point sets can have small negative eigenvalues; it is kept for
+    compatibility with DACE and should be used with a nugget.
+
+    Parameters
+    ----------
+    roughness : float or array-like of shape (n_features,), default=1.0
+        Roughness ω (units 1/length). A scalar gives an isotropic kernel, an
+        array one roughness per input dimension.
+    roughness_bounds : pair of floats > 0 or "fixed", default=(1e-5, 1e5)
+        Bounds on ``roughness`` for hyperparameter optimisation.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skmba.kernels import Cubic
+    >>> np.round(Cubic(roughness=1.0)(np.array([[0.0], [0.5]])), 4)
+    array([[1. , 0.5],
+           [0.5, 1. ]])
+    """
+
+    @staticmethod
+    def _profile(zeta):
+        z = np.minimum(1.0, zeta)
+        return 1.0 - 3.0 * z**2 + 2.0 * z**3
+
+    @staticmethod
+    def _profile_derivative(zeta):
+        return np.where(zeta < 1.0, 6.0 * zeta**2 - 6.0 * zeta, 0.0)
+
+
+class Spline(_DACECorrelation):
+    """Cubic spline correlation ``prod_j ς(ω_j |Δ_j|)`` (thesis Eq. 3.6).
+
+    ς(ζ) = 1 - 15ζ² + 30ζ³ for ζ <= 0.2, 1.25 (1 - ζ)³ for 0.2 < ζ < 1 and
+    0 for ζ >= 1; value and first derivative are continuous everywhere.
+    Compactly supported and positive definite.
+
+    Parameters
+    ----------
+    roughness : float or array-like of shape (n_features,), default=1.0
+        Roughness ω (units 1/length). A scalar gives an isotropic kernel, an
+        array one roughness per input dimension.
+    roughness_bounds : pair of floats > 0 or "fixed", default=(1e-5, 1e5)
+        Bounds on ``roughness`` for hyperparameter optimisation.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skmba.kernels import Spline
+    >>> np.round(Spline(roughness=1.0)(np.array([[0.0], [0.6]])), 4)
+    array([[1.  , 0.08],
+           [0.08, 1.  ]])
+    """
+
+    @staticmethod
+    def _profile(zeta):
+        inner = 1.0 - 15.0 * zeta**2 + 30.0 * zeta**3
+        outer = 1.25 * np.clip(1.0 - zeta, 0.0, None) ** 3
+        return np.where(zeta <= 0.2, inner, outer)
+
+    @staticmethod
+    def _profile_derivative(zeta):
+        inner = 90.0 * zeta**2 - 30.0 * zeta
+        outer = -3.75 * np.clip(1.0 - zeta, 0.0, None) ** 2
+        return np.where(zeta <= 0.2, inner, outer)
+
+
+def check_correlation(kernel, X):
+    """Check that ``kernel`` is a correlation (unit diagonal) on ``X``.
+
+    ``MultiResponseGP`` estimates the process variances itself (``sigma2_``)
+    and per-response noise through ``noise=True``, so its kernel must be a
+    pure correlation.  Scikit-learn's ``RBF``, ``Matern``,
+    ``RationalQuadratic``, ``ExpSineSquared``, the DACE families of this
+    module and products of correlations pass; kernels containing
+    ``ConstantKernel`` or ``WhiteKernel`` terms do not.
+
+    Parameters
+    ----------
+    kernel : sklearn.gaussian_process.kernels.Kernel
+        Kernel to check.
+    X : array-like of shape (n_samples, n_features)
+        Points at which the diagonal is evaluated.
+
+    Returns
+    -------
+    None
+
+    Raises
+    ------
+    TypeError
+        If ``kernel`` is not a scikit-learn ``Kernel`` instance.
+    ValueError
+        If ``kernel.diag(X)`` differs from one by more than 1e-8.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sklearn.gaussian_process.kernels import RBF, ConstantKernel
+    >>> from skmba.kernels import Gauss, check_correlation
+    >>> X = np.array([[0.0, 1.0], [2.0, 3.0]])
+    >>> check_correlation(Gauss() * RBF(), X)
+    >>> check_correlation(ConstantKernel(2.0) * RBF(), X)
+    Traceback (most recent call last):
+    ...
+    ValueError: The kernel must be a correlation with unit diagonal...
+    """
+    if not isinstance(kernel, Kernel):
+        raise TypeError(
+            "kernel must be an instance of sklearn.gaussian_process.kernels."
+            f"Kernel, got {type(kernel).__name__}."
+        )
+    X = np.atleast_2d(np.asarray(X, dtype=float))
+    diag = np.asarray(kernel.diag(X), dtype=float)
+    if diag.size and not np.all(np.abs(diag - 1.0) <= 1e-8):
+        raise ValueError(
+            "The kernel must be a correlation with unit diagonal "
+            f"(kernel.diag(X) == 1), but {kernel!r} has diagonal values in "
+            f"[{np.min(diag):.6g}, {np.max(diag):.6g}]. Remove ConstantKernel "
+            "or WhiteKernel factors/terms: MultiResponseGP estimates the "
+            "variances itself in sigma2_ and per-response noise through "
+            "noise=True."
+        )
