@@ -1,0 +1,17 @@
+"""The README's quick-start code block runs as written."""
+
+import re
+from pathlib import Path
+
+README = Path(__file__).resolve().parents[1] / "README.md"
+
+
+def test_quick_start_runs():
+    blocks = re.findall(r"```python\n(.*?)```", README.read_text(), flags=re.S)
+    assert blocks, "README.md has no python code block"
+    namespace = {}
+    exec(compile(blocks[0], "README.md", "exec"), namespace)  # noqa: S102
+    gp = namespace["gp"]
+    assert gp.sigma2_.shape == (2, 2)
+    # the comment in the README promises noise close to [1e-4, 2.5e-3]
+    assert 0.5e-4 < gp.noise_[0] < 2e-4 and 1.2e-3 < gp.noise_[1] < 5e-3
