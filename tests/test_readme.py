@@ -10,7 +10,7 @@ def test_quick_start_runs():
     blocks = re.findall(r"```python\n(.*?)```", README.read_text(), flags=re.S)
     assert blocks, "README.md has no python code block"
     namespace = {}
-    exec(compile(blocks[0], "README.md", "exec"), namespace)  # noqa: S102
+    exec(compile(blocks[0], "README.md", "exec"), namespace)
     gp = namespace["gp"]
     assert gp.sigma2_.shape == (2, 2)
     # the comment in the README promises noise close to [1e-4, 2.5e-3]
