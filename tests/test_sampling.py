@@ -1,0 +1,392 @@
+"""Tests of the adaptive Metropolis sampler and its convergence diagnostics."""
+
+import warnings
+
+import joblib
+import numpy as np
+import pytest
+from scipy import signal, stats
+
+from skmba._sampling import (
+    ChainResult,
+    _autocovariance,
+    _rhat_bulk,
+    _rhat_folded,
+    check_diagnostics,
+    ess_bulk,
+    rank_normalize,
+    run_chains,
+    split_rhat,
+)
+
+# A 2-D Gaussian whose scales differ by 1e5 and whose correlation is -0.9:
+# far from the default proposal (2.38^2 / 2) I, so that only an adapted
+# proposal samples it well.
+SD = np.array([1e3, 1e-2])
+RHO = -0.9
+MEAN = np.array([2e3, 0.5])
+COV = np.array([[SD[0] ** 2, RHO * SD[0] * SD[1]], [RHO * SD[0] * SD[1], SD[1] ** 2]])
+PRECISION = np.linalg.inv(COV)
+
+
+def correlated_gaussian(theta):
+    d = theta - MEAN
+    return -0.5 * float(d @ PRECISION @ d)
+
+
+def standard_normal(theta):
+    return -0.5 * float(theta @ theta)
+
+
+def dispersed_starts(n_chains, seed):
+    """Starts drawn from the target with doubled standard deviations."""
+    z = np.random.default_rng(seed).normal(size=(n_chains, 2))
+    return MEAN + 2.0 * z @ np.linalg.cholesky(COV).T
+
+
+@pytest.fixture(scope="module")
+def gaussian_result():
+    return run_chains(
+        correlated_gaussian,
+        dispersed_starts(4, seed=0),
+        n_samples=4000,
+        burn_in=2000,
+        random_state=0,
+    )
+
+
+def test_result_shapes(gaussian_result):
+    result = gaussian_result
+    assert isinstance(result, ChainResult)
+    assert result.samples.shape == (4, 4000, 2)
+    assert result.log_density.shape == (4, 4000)
+    assert result.acceptance_rate.shape == (4,)
+    assert result.proposal_cov.shape == (4, 2, 2)
+    assert result.pooled.shape == (16000, 2)
+    np.testing.assert_array_equal(result.pooled[4000:8000], result.samples[1])
+    assert result.rhat.shape == (2,)
+    assert result.ess.shape == (2,)
+
+
+def test_stored_log_density_matches_samples(gaussian_result):
+    result = gaussian_result
+    recomputed = [correlated_gaussian(t) for t in result.samples[2, ::97]]
+    np.testing.assert_allclose(result.log_density[2, ::97], recomputed)
+
+
+def test_correlated_gaussian_with_very_different_scales(gaussian_result):
+    result = gaussian_result
+    pooled = result.pooled
+    # Pooled mean within 0.1 standard deviation of the true mean.
+    np.testing.assert_array_less(np.abs(pooled.mean(axis=0) - MEAN) / SD, 0.1)
+    # Every entry of the covariance (variances and the covariance) within
+    # 15% relative error.
+    np.testing.assert_array_less(np.abs(np.cov(pooled.T) / COV - 1.0), 0.15)
+    assert np.all(result.acceptance_rate >= 0.15)
+    assert np.all(result.acceptance_rate <= 0.5)
+    np.testing.assert_array_less(result.rhat, 1.01)
+    np.testing.assert_array_less(400, result.ess)
+
+
+def test_adapted_proposal_matches_target_shape(gaussian_result):
+    # The frozen proposal covariance has the target's correlation and scales
+    # (up to the global factor), not the identity it started from.
+    for cov in gaussian_result.proposal_cov:
+        sd = np.sqrt(np.diag(cov))
+        assert cov[0, 1] / (sd[0] * sd[1]) == pytest.approx(RHO, abs=0.05)
+        assert sd[0] / sd[1] == pytest.approx(SD[0] / SD[1], rel=0.3)
+
+
+def test_bounded_support_is_respected():
+    # Uniform prior on [0, 1] times a Gaussian likelihood centred near the
+    # lower bound: the posterior is a truncated normal.
+    loc, scale = 0.05, 0.1
+
+    def log_density(theta):
+        t = theta[0]
+        if t < 0.0 or t > 1.0:
+            return -np.inf
+        return -0.5 * ((t - loc) / scale) ** 2
+
+    starts = np.array([[0.01], [0.5], [0.9]])
+    result = run_chains(
+        log_density, starts, n_samples=3000, burn_in=1000, random_state=1
+    )
+    assert result.samples.min() >= 0.0
+    assert result.samples.max() <= 1.0
+    assert np.all(np.isfinite(result.log_density))
+    truncated = stats.truncnorm((0 - loc) / scale, (1 - loc) / scale, loc, scale)
+    assert result.pooled.mean() == pytest.approx(truncated.mean(), abs=0.01)
+
+
+def test_one_dimensional_acceptance_targets_044():
+    result = run_chains(
+        standard_normal,
+        np.zeros((2, 1)),
+        n_samples=4000,
+        burn_in=2000,
+        random_state=3,
+    )
+    np.testing.assert_allclose(result.acceptance_rate, 0.44, atol=0.06)
+
+
+def test_no_adaptation_keeps_the_proposal():
+    cov = np.array([[0.5, 0.1], [0.1, 0.2]])
+    result = run_chains(
+        standard_normal,
+        np.zeros((3, 2)),
+        n_samples=100,
+        burn_in=100,
+        proposal_cov=cov,
+        adapt=False,
+        random_state=0,
+    )
+    np.testing.assert_allclose(result.proposal_cov, np.broadcast_to(cov, (3, 2, 2)))
+    adapted = run_chains(
+        standard_normal,
+        np.zeros((3, 2)),
+        n_samples=100,
+        burn_in=300,
+        proposal_cov=cov,
+        random_state=0,
+    )
+    assert not np.allclose(adapted.proposal_cov, cov)
+
+
+def test_per_chain_proposal_cov_and_no_burn_in():
+    covs = np.stack([np.eye(2) * s for s in (0.1, 1.0)])
+    result = run_chains(
+        standard_normal,
+        np.zeros((2, 2)),
+        n_samples=50,
+        burn_in=0,
+        proposal_cov=covs,
+        random_state=0,
+    )
+    # Without burn-in nothing is adapted.
+    np.testing.assert_allclose(result.proposal_cov, covs)
+    assert result.samples.shape == (2, 50, 2)
+
+
+# ---------------------------------------------------------------------------
+# Determinism
+
+
+def _run(random_state, n_jobs):
+    return run_chains(
+        correlated_gaussian,
+        dispersed_starts(3, seed=5),
+        n_samples=300,
+        burn_in=300,
+        n_jobs=n_jobs,
+        random_state=random_state,
+    )
+
+
+def _assert_identical(a, b):
+    np.testing.assert_array_equal(a.samples, b.samples)
+    np.testing.assert_array_equal(a.log_density, b.log_density)
+    np.testing.assert_array_equal(a.acceptance_rate, b.acceptance_rate)
+    np.testing.assert_array_equal(a.proposal_cov, b.proposal_cov)
+
+
+def test_same_seed_gives_identical_results_for_any_n_jobs():
+    serial = _run(42, n_jobs=1)
+    _assert_identical(serial, _run(42, n_jobs=2))
+    with joblib.parallel_config(backend="threading"):
+        _assert_identical(serial, _run(42, n_jobs=2))
+    other = _run(43, n_jobs=1)
+    assert not np.array_equal(serial.samples, other.samples)
+    # The chains of one run are not copies of each other.
+    assert not np.array_equal(serial.samples[0, -1], serial.samples[1, -1])
+
+
+def test_random_state_objects():
+    a = _run(np.random.default_rng(7), n_jobs=1)
+    b = _run(np.random.default_rng(7), n_jobs=1)
+    _assert_identical(a, b)
+    c = _run(np.random.RandomState(7), n_jobs=1)
+    d = _run(np.random.RandomState(7), n_jobs=1)
+    _assert_identical(c, d)
+    # None draws fresh entropy.
+    assert not np.array_equal(_run(None, 1).samples, _run(None, 1).samples)
+    with pytest.raises(ValueError, match="random_state"):
+        _run("seed", n_jobs=1)
+
+
+# ---------------------------------------------------------------------------
+# Errors
+
+
+def test_start_with_zero_density_is_rejected():
+    def log_density(theta):
+        return 0.0 if theta[0] > 0 else -np.inf
+
+    with pytest.raises(ValueError, match=r"starts\[1\]"):
+        run_chains(log_density, np.array([[1.0], [-1.0]]), n_samples=10, burn_in=10)
+
+
+@pytest.mark.parametrize("n_jobs", [1, 2])
+def test_log_density_error_names_the_chain(n_jobs):
+    # Chain 0 sits near -1000 and never reaches the region that raises;
+    # chain 1 starts at its edge.
+    def log_density(theta):
+        if theta[0] > 100.0:
+            raise ValueError("boom")
+        return -0.5 * (theta[0] + 1000.0) ** 2
+
+    starts = np.array([[-1000.0], [99.9]])
+    with pytest.raises(RuntimeError, match=r"chain 1.*boom"):
+        run_chains(
+            log_density,
+            starts,
+            n_samples=100,
+            burn_in=100,
+            n_jobs=n_jobs,
+            random_state=0,
+        )
+
+
+def test_log_density_error_at_a_start_names_the_chain():
+    def log_density(theta):
+        raise KeyError("missing")
+
+    with pytest.raises(RuntimeError, match=r"chain 0.*missing") as info:
+        run_chains(log_density, np.zeros((2, 1)), n_samples=10, burn_in=10)
+    assert isinstance(info.value.__cause__, KeyError)
+
+
+def test_nan_log_density_is_an_error():
+    with pytest.raises(RuntimeError, match="nan"):
+        run_chains(lambda t: np.nan, np.zeros((1, 1)), n_samples=10, burn_in=10)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"starts": np.zeros(3)}, "starts"),
+        ({"starts": np.full((2, 1), np.nan)}, "starts"),
+        ({"n_samples": 0}, "n_samples"),
+        ({"burn_in": -1}, "burn_in"),
+        ({"burn_in": 1.5}, "burn_in"),
+        ({"proposal_cov": np.eye(3)}, "proposal_cov"),
+        ({"proposal_cov": -np.eye(1)}, "proposal_cov"),
+    ],
+)
+def test_invalid_arguments(kwargs, match):
+    arguments = {"starts": np.zeros((2, 1)), "n_samples": 10, "burn_in": 10}
+    arguments.update(kwargs)
+    with pytest.raises(ValueError, match=match):
+        run_chains(standard_normal, **arguments)
+
+
+# ---------------------------------------------------------------------------
+# Diagnostics
+
+
+def test_rank_normalize_formula():
+    x = np.array([[3.0, 1.0, 2.0], [2.0, 5.0, 4.0]])
+    ranks = np.array([[4.0, 1.0, 2.5], [2.5, 6.0, 5.0]])  # ties averaged
+    expected = stats.norm.ppf((ranks - 3 / 8) / (6 + 1 / 4))
+    np.testing.assert_allclose(rank_normalize(x), expected)
+
+
+def test_split_rhat_of_iid_chains_is_one():
+    draws = np.random.default_rng(0).normal(size=(4, 1000))
+    assert split_rhat(draws) == pytest.approx(1.0, abs=0.01)
+
+
+def test_split_rhat_detects_a_shifted_chain():
+    draws = np.random.default_rng(1).normal(size=(4, 1000))
+    draws[2] += 2.0
+    assert split_rhat(draws) > 1.1
+
+
+def test_split_rhat_detects_a_trend_within_one_chain():
+    draws = np.linspace(0.0, 10.0, 1000) + np.random.default_rng(2).normal(size=1000)
+    assert split_rhat(draws) > 1.1
+
+
+def test_folded_rhat_detects_different_variances():
+    draws = np.random.default_rng(3).normal(size=(4, 1000))
+    draws[2:] *= 3.0  # same mean, three times the spread
+    assert _rhat_bulk(draws) < 1.01  # the location-based R-hat misses it
+    assert _rhat_folded(draws) > 1.1
+    assert split_rhat(draws) == max(_rhat_bulk(draws), _rhat_folded(draws))
+    assert split_rhat(draws) > 1.1
+
+
+def test_degenerate_chains():
+    assert np.isnan(split_rhat(np.ones((2, 10))))
+    assert np.isnan(ess_bulk(np.ones((2, 10))))
+    assert np.isnan(split_rhat(np.zeros((2, 3))))
+    # Each chain stuck at a different value.
+    assert split_rhat(np.array([[0.0] * 10, [1.0] * 10])) == np.inf
+
+
+def test_autocovariance_matches_direct_sum():
+    x = np.random.default_rng(4).normal(size=(2, 50))
+    centred = x - x.mean(axis=1, keepdims=True)
+    direct = np.array([[c[: 50 - k] @ c[k:] / 50 for k in range(50)] for c in centred])
+    np.testing.assert_allclose(_autocovariance(x), direct, atol=1e-12)
+
+
+def test_ess_of_iid_draws_is_the_number_of_draws():
+    draws = np.random.default_rng(5).normal(size=(4, 2500))
+    assert ess_bulk(draws) == pytest.approx(draws.size, rel=0.1)
+
+
+def test_ess_of_ar1_chains_matches_theory():
+    rho, n_chains, n_draws = 0.9, 4, 10000
+    rng = np.random.default_rng(6)
+    innovations = rng.normal(size=(n_chains, n_draws)) * np.sqrt(1 - rho**2)
+    first = rng.normal(size=n_chains)  # stationary start
+    chains = signal.lfilter(
+        [1.0], [1.0, -rho], innovations, axis=1, zi=rho * first[:, np.newaxis]
+    )[0]
+    theory = n_chains * n_draws * (1 - rho) / (1 + rho)
+    assert ess_bulk(chains) == pytest.approx(theory, rel=0.2)
+
+
+def test_check_diagnostics_quiet_on_a_good_run(gaussian_result):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert check_diagnostics(gaussian_result) == []
+
+
+def test_check_diagnostics_warns_on_a_short_run():
+    result = run_chains(
+        correlated_gaussian,
+        dispersed_starts(2, seed=8),
+        n_samples=60,
+        burn_in=20,
+        random_state=0,
+    )
+    with pytest.warns(UserWarning, match="n_samples") as record:
+        messages = check_diagnostics(result, names=["E", "I"])
+    assert len(messages) == len(record) >= 1
+    assert any("E (" in message and "I (" in message for message in messages)
+
+
+def test_check_diagnostics_warns_on_unmixed_chains():
+    # Two well separated modes, one chain in each.
+    def bimodal(theta):
+        return float(
+            np.logaddexp(-0.5 * (theta[0] - 10) ** 2, -0.5 * (theta[0] + 10) ** 2)
+        )
+
+    result = run_chains(
+        bimodal,
+        np.array([[-10.0], [10.0]]),
+        n_samples=2000,
+        burn_in=500,
+        random_state=0,
+    )
+    assert result.rhat[0] > 1.5
+    with pytest.warns(UserWarning) as record:
+        messages = check_diagnostics(result, names=["stiffness"])
+    assert any(m.startswith("R-hat above 1.01 for stiffness") for m in messages)
+    assert any("more chains" in m and "burn_in" in m for m in messages)
+    assert len(record) == len(messages)
+    with pytest.raises(ValueError, match="names"):
+        check_diagnostics(result, names=["a", "b"])
