@@ -1,0 +1,55 @@
+"""Module-2 discrepancy likelihood: gradients, fixed noise, optimisers."""
+
+import numpy as np
+import pytest
+
+from skmba._discrepancy import DiscrepancyFit
+from skmba.kernels import Gauss
+
+
+@pytest.fixture
+def problem():
+    rng = np.random.default_rng(0)
+    X = rng.uniform(size=(15, 2))
+    Y = np.column_stack([np.sin(3 * X[:, 0]), X[:, 1] ** 2, X[:, 0]])
+    Y = Y + 0.05 * rng.normal(size=Y.shape)
+    A = rng.normal(size=(45, 45))
+    V_fixed = 0.01 * (A @ A.T) / 45
+    return X, Y, V_fixed
+
+
+def test_gradient_matches_finite_differences(problem):
+    X, Y, V_fixed = problem
+    fit = DiscrepancyFit(Gauss([1.0, 2.0]), X, Y, np.ones((15, 1)), V_fixed)
+    x = fit.start() + 0.1 * np.random.default_rng(1).normal(size=fit.start().size)
+    _, grad = fit.evaluate(x)
+    h = 1e-6
+    numeric = [
+        (fit.evaluate(x + h * e, False) - fit.evaluate(x - h * e, False)) / (2 * h)
+        for e in np.eye(x.size)
+    ]
+    np.testing.assert_allclose(grad, numeric, rtol=1e-5, atol=1e-6)
+
+
+def test_optimum_is_stationary_and_noise_can_be_fixed(problem):
+    X, Y, V_fixed = problem
+    fit = DiscrepancyFit(Gauss([1.0, 2.0]), X, Y, np.ones((15, 1)), V_fixed)
+    fit.optimize(n_restarts=1, random_state=0)
+    assert fit.sigma2.shape == (3, 3) and fit.beta.shape == (1, 3)
+    assert np.all(np.linalg.eigvalsh(fit.sigma2) > 0)
+    start = fit.start()
+    ll_start = fit.evaluate(start, False)
+    assert fit.log_likelihood >= ll_start
+    fixed = DiscrepancyFit(Gauss([1.0, 2.0]), X, Y, np.ones((15, 1)), V_fixed)
+    fixed.fix_noise(1e-6).optimize(random_state=0)
+    np.testing.assert_allclose(fixed.noise, 1e-6 * fixed.scale**2, rtol=1e-10)
+    assert fixed.log_likelihood <= fit.log_likelihood + 1e-8
+
+
+def test_differential_evolution_and_bad_optimizer(problem):
+    X, Y, V_fixed = problem
+    fit = DiscrepancyFit(Gauss([1.0, 2.0]), X, Y, np.ones((15, 1)), V_fixed)
+    fit.optimize(optimizer="differential_evolution", random_state=0)
+    assert np.isfinite(fit.log_likelihood)
+    with pytest.raises(ValueError, match="discrepancy optimizer"):
+        fit.optimize(optimizer="adam")
