@@ -5,8 +5,9 @@ A scikit-learn compatible implementation of the modular Bayesian approach
 Gaussian processes as emulators and discrepancy models.
 """
 
+from skmba._calibration import ModularBayesCalibrator
 from skmba._gp import MultiResponseGP
 
 __version__ = "0.1.0.dev0"
 
-__all__ = ["MultiResponseGP", "__version__"]
+__all__ = ["ModularBayesCalibrator", "MultiResponseGP", "__version__"]

@@ -30,6 +30,28 @@ _MAX_SCORING_STEPS = 200
 _SCORING_TOL = 1e-12
 
 
+def default_kernel(X):
+    """Anisotropic Gauss correlation scaled to the spread of ``X``.
+
+    The starting roughness is ``1 / range_j^2`` per input (correlation
+    ``exp(-1)`` across the full range), with bounds ``1e-4`` to ``1e4`` times
+    that.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> default_kernel(np.array([[0.0, 0.0], [2.0, 10.0]]))
+    Gauss(roughness=[0.25, 0.01])
+    """
+    span = np.ptp(X, axis=0)
+    span = np.where(span > 0, span, 1.0)
+    start = 1.0 / span**2
+    return Gauss(
+        roughness=start,
+        roughness_bounds=np.column_stack([1e-4 * start, 1e4 * start]),
+    )
+
+
 class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
     """Multi-response Gaussian process with covariance ``Sigma2 ⊗ R``.
 
@@ -85,6 +107,12 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
         and take no part in the likelihood.
     random_state : int, RandomState instance or None, default=None
         Seeds the restarts (and nothing else).
+    response_nugget : float, default=0.0
+        Added to the diagonal of the estimated ``Sigma2``, as a fraction of the
+        mean response variance. Without noise, responses that are exact
+        linear combinations of others (strains driven by one load, a
+        displacement and a rotation of the same beam) make ``E' R^-1 E``
+        singular; a small nugget (e.g. 1e-8) lets them be emulated jointly.
 
     Attributes
     ----------
@@ -149,6 +177,7 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
         n_restarts_optimizer=0,
         normalize_y=True,
         random_state=None,
+        response_nugget=0.0,
     ):
         self.kernel = kernel
         self.regression = regression
@@ -158,6 +187,7 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
         self.n_restarts_optimizer = n_restarts_optimizer
         self.normalize_y = normalize_y
         self.random_state = random_state
+        self.response_nugget = response_nugget
 
     # ------------------------------------------------------------------ fit
     def _validate_params_(self):
@@ -168,6 +198,15 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
             raise ValueError(
                 f"alpha={self.alpha} is negative; the nugget must be >= 0 "
                 "(e.g. alpha=1e-10)."
+            )
+        if (
+            not isinstance(self.response_nugget, Real)
+            or not np.isfinite(self.response_nugget)
+            or self.response_nugget < 0
+        ):
+            raise ValueError(
+                "response_nugget must be a non-negative float, got "
+                f"{self.response_nugget!r}."
             )
         if (
             not isinstance(self.n_restarts_optimizer, Integral)
@@ -191,15 +230,6 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
                 "kernel must be an sklearn Kernel (e.g. skmba.kernels.Gauss()) "
                 f"or None, got {type(self.kernel).__name__}."
             )
-
-    def _default_kernel(self, X):
-        span = np.ptp(X, axis=0)
-        span = np.where(span > 0, span, 1.0)
-        start = 1.0 / span**2
-        return Gauss(
-            roughness=start,
-            roughness_bounds=np.column_stack([1e-4 * start, 1e4 * start]),
-        )
 
     def fit(self, X, y):
         """Fit the Gaussian process by maximum likelihood.
@@ -233,7 +263,7 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
                 f"(p={p} regression terms). Add samples or use a lower-order "
                 "regression."
             )
-        kernel = self._default_kernel(X) if self.kernel is None else clone(self.kernel)
+        kernel = default_kernel(X) if self.kernel is None else clone(self.kernel)
         check_correlation(kernel, X[: min(n, 5)])
         self.X_train_ = X
         self._H = regression_basis(X, self.regression)
@@ -254,6 +284,9 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
         # Scale of the (internal) responses for noise/Sigma2 parametrisation.
         self._scale = Ya.std(axis=0) if Ya.size else np.ones(0)
         q = Ya.shape[1]
+        self._ridge = (
+            self.response_nugget * float(np.mean(Ya.var(axis=0))) if q else 0.0
+        )
 
         if q == 0:
             warnings.warn(
@@ -352,7 +385,7 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
                     dtau = np.zeros((n, n, 1))
                     dtau[np.arange(n), np.arange(n), 0] = tau
                     dR = np.concatenate([dR, dtau], axis=2)
-            return NoiseFreeLikelihood(R, H, Y, dR)
+            return NoiseFreeLikelihood(R, H, Y, dR, ridge=self._ridge)
 
         def objective(params, eval_gradient=True):
             try:
@@ -646,7 +679,7 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
             fit = NoisyLikelihood(R, self._H, self._Y, state.sigma2, state.ke.lam, dR)
             grad = fit.grad_kernel
         else:
-            fit = NoiseFreeLikelihood(R, self._H, self._Y, dR)
+            fit = NoiseFreeLikelihood(R, self._H, self._Y, dR, ridge=self._ridge)
             grad = fit.gradient
         shift = len(self.X_train_) * np.sum(np.log(self._y_std[self._active]))
         value = fit.log_likelihood - shift

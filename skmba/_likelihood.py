@@ -83,54 +83,73 @@ class NoiseFreeLikelihood:
     dR : ndarray of shape (N, N, n_theta), optional
         Derivatives of ``R`` with respect to the kernel's log-hyperparameters;
         when given, :attr:`gradient` is computed.
+    ridge : float, default=0
+        Added to the diagonal of ``Sigma2`` (internal units): lets exactly
+        linearly dependent responses (whose ``E' R^-1 E`` is singular) be
+        emulated. The likelihood is then evaluated at this plug-in ``Sigma2``
+        and its gradient includes the dependence of ``Sigma2`` on the kernel.
 
     Attributes
     ----------
     log_likelihood : float
-        ``-(Nq/2)(log 2 pi + 1) - (N/2) log|Sigma2| - (q/2) log|R|``.
+        ``-(Nq/2) log 2 pi - (N/2) log|Sigma2| - (q/2) log|R|
+        - tr(Sigma2^-1 E' R^-1 E) / 2``, which is
+        ``-(Nq/2)(log 2 pi + 1) - ...`` without ridge.
     gradient : ndarray of shape (n_theta,) or None
     beta : ndarray of shape (p, q)
     sigma2 : ndarray of shape (q, q)
-        ``E' R^-1 E / N`` with ``E = Y - H beta``.
+        ``E' R^-1 E / N + ridge I`` with ``E = Y - H beta``.
     """
 
-    def __init__(self, R, H, Y, dR=None):
+    def __init__(self, R, H, Y, dR=None, ridge=0.0):
         N, q = Y.shape
         self.C = cholesky(R, what="correlation matrix R", remedy=R_REMEDY)
         self.gls = whitened_gls(self.C, H, Y)
         resid = self.gls.residual
-        self.sigma2 = resid.T @ resid / N
+        S = resid.T @ resid
+        self.sigma2 = S / N + ridge * np.eye(q)
         self.sigma2_chol = cholesky(
             self.sigma2,
             what="estimated response covariance Sigma2",
             remedy=(
                 "Some responses are (nearly) linear combinations of others. "
-                "Drop the redundant responses, or fit with noise=True."
+                "Drop the redundant responses, set a response_nugget, or fit "
+                "with noise=True."
             ),
         )
-        explained = np.diag(self.sigma2_chol) ** 2 <= 1e-12 * np.maximum(
-            Y.var(axis=0), 1e-300
-        )
-        if np.any(explained):
-            raise FactorizationError(
-                "The estimated response covariance Sigma2 is singular: "
-                f"response(s) {np.flatnonzero(explained).tolist()} are exactly "
-                "explained by the regression terms or by the other responses. "
-                "Drop the redundant responses, use a lower-order regression, "
-                "or fit with noise=True."
+        if ridge == 0.0:
+            explained = np.diag(self.sigma2_chol) ** 2 <= 1e-12 * np.maximum(
+                Y.var(axis=0), 1e-300
             )
+            if np.any(explained):
+                raise FactorizationError(
+                    "The estimated response covariance Sigma2 is singular: "
+                    f"response(s) {np.flatnonzero(explained).tolist()} are "
+                    "exactly explained by the regression terms or by the other "
+                    "responses. Drop the redundant responses, use a lower-order "
+                    "regression, set a response_nugget, or fit with noise=True."
+                )
+        # tr(Sigma2^-1 S) = Nq without ridge (the concentrated optimum).
+        L_inv_resid = linalg.solve_triangular(self.sigma2_chol, resid.T, lower=True)
+        quad = float(np.sum(L_inv_resid**2))
         self.log_likelihood = (
-            -0.5 * N * q * (LOG_2PI + 1.0)
+            -0.5 * N * q * LOG_2PI
             - 0.5 * N * log_det_from_cholesky(self.sigma2_chol)
             - 0.5 * q * log_det_from_cholesky(self.C)
+            - 0.5 * quad
         )
         self.gradient = None
         if dR is not None:
             # alpha = R^-1 E Sigma2^-1 in matrix form; quadratic weight
-            # A Sigma2^-1 A' with A = R^-1 E = C^-T resid.
+            # A Sigma2^-1 A' with A = R^-1 E = C^-T resid. With a ridge,
+            # Sigma2 = S/N + ridge I is not the optimum, and its dependence on
+            # theta adds ridge * A Sigma2^-2 A'.
             A = linalg.solve_triangular(self.C, resid, lower=True, trans="T")
             B = linalg.solve_triangular(self.sigma2_chol, A.T, lower=True)
             weight = B.T @ B - q * _cholesky_inverse(self.C)
+            if ridge:
+                D = linalg.cho_solve((self.sigma2_chol, True), A.T)
+                weight += ridge * (D.T @ D)
             self.gradient = 0.5 * _weighted_trace_gradient(dR, weight)
 
     @property
