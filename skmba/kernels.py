@@ -430,7 +430,7 @@ class Gauss(_ExponentialProfile):
 class Linear(_DACECorrelation):
     """Linear correlation ``prod_j max(0, 1 - ω_j |Δ_j|)``.
 
-    Compactly supported.  At the edge of the support (ω_j |Δ_j| = 1) the
+    Compactly supported.  At the edge of the support (``ω_j |Δ_j| = 1``) the
     gradient uses the one-sided derivative from outside the support, i.e.
     zero.
 
@@ -464,7 +464,7 @@ class Linear(_DACECorrelation):
 class Spherical(_DACECorrelation):
     """Spherical correlation ``prod_j (1 - 1.5 ζ_j + 0.5 ζ_j³)``.
 
-    With ζ_j = min(1, ω_j |Δ_j|); compactly supported.
+    With ``ζ_j = min(1, ω_j |Δ_j|)``; compactly supported.
 
     Parameters
     ----------
@@ -496,7 +496,7 @@ class Spherical(_DACECorrelation):
 class Cubic(_DACECorrelation):
     """Cubic correlation ``prod_j (1 - 3 ζ_j² + 2 ζ_j³)``.
 
-    With ζ_j = min(1, ω_j |Δ_j|); compactly supported.  Unlike the other
+    With ``ζ_j = min(1, ω_j |Δ_j|)``; compactly supported.  Unlike the other
     families this profile is not positive definite, not even in one
     dimension (its Fourier transform changes sign), so correlation matrices
     on dense point sets can have small negative eigenvalues; it is kept for
