@@ -56,7 +56,6 @@ numpydoc_class_members_toctree = False
 numpydoc_attributes_as_param_list = True
 
 
-
 # -- Sphinx-Gallery ------------------------------------------------------------
 sphinx_gallery_conf = {
     "examples_dirs": "../examples",
