@@ -24,7 +24,8 @@ from skmba._sampling import check_diagnostics, run_chains
 MODULE2_VARIANCES = ("total", "conditional")
 INTEGRATIONS = ("auto", "quadrature", "qmc")
 SAMPLERS = ("auto", "quadrature", "mcmc")
-_N_PREDICT_DRAWS = 200  # posterior draws used by the module-4 predictions
+_N_PREDICT_DRAWS = 200  # posterior draws used by the module-4 predictions (MCMC)
+_N_PREDICT_NODES = 41  # quadrature nodes used by them (one parameter)
 
 
 def _check_simulator_output(Y, n, q, first_run):
@@ -538,13 +539,12 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
                 self._posterior_by_quadrature(np.random.RandomState(seeds[3]))
             else:
                 self._posterior_by_mcmc(seeds[3])
-        self.theta_mean_ = np.average(
-            self._pred_thetas, axis=0, weights=self._pred_weights
-        )
-        self.theta_cov_ = np.atleast_2d(
-            np.cov(self._pred_thetas.T, aweights=self._pred_weights, ddof=0)
-        )
-        if sampler == "mcmc":
+        if sampler == "quadrature":
+            nodes, weights = self.theta_nodes_, self.theta_weights_
+            self.theta_mean_ = weights @ nodes
+            centred = nodes - self.theta_mean_
+            self.theta_cov_ = (centred * weights[:, None]).T @ centred
+        else:
             self.theta_mean_ = self.theta_samples_.mean(axis=0)
             self.theta_cov_ = np.atleast_2d(np.cov(self.theta_samples_.T))
         return self
@@ -702,10 +702,14 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         cdf = cdf / cdf[-1]
         u = (np.arange(self.n_samples) + rng.uniform()) / self.n_samples
         self.theta_samples_ = np.interp(u, cdf, t)[:, None]
-        keep = w > 1e-12 * w.max()
-        order = np.argsort(w[keep])[::-1][:_N_PREDICT_DRAWS]
-        self._pred_thetas = t[keep][order][:, None]
-        self._pred_weights = w[keep][order] / w[keep][order].sum()
+        # Module 4 integrates over the posterior with a smaller rule on the
+        # same interval (each node costs a factorisation at prediction time).
+        x, v = np.polynomial.legendre.leggauss(_N_PREDICT_NODES)
+        nodes = 0.5 * (hi - lo) * x + 0.5 * (hi + lo)
+        logp = np.array([self._log_posterior_one(np.array([u])) for u in nodes])
+        v = v * np.exp(logp - np.max(logp))
+        self._pred_thetas = nodes[:, None]
+        self._pred_weights = v / v.sum()
 
     def _laplace(self, starts):
         """Posterior mode and covariance (Laplace) in the sampling coordinates.
@@ -813,7 +817,8 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         def one(theta):
             return gm.predict(theta, Xs, component, return_var=return_std)
 
-        results = Parallel(n_jobs=self.n_jobs)(delayed(one)(t) for t in thetas)
+        with threadpool_limits(limits=1, user_api="blas"):
+            results = Parallel(n_jobs=self.n_jobs)(delayed(one)(t) for t in thetas)
         if return_std:
             means = np.stack([m for m, _ in results])
             variances = np.stack([v for _, v in results])

@@ -48,8 +48,13 @@ def test_optimum_is_stationary_and_noise_can_be_fixed(problem):
 
 def test_differential_evolution_and_bad_optimizer(problem):
     X, Y, V_fixed = problem
-    fit = DiscrepancyFit(Gauss([1.0, 2.0]), X, Y, np.ones((15, 1)), V_fixed)
+    # one response keeps the global search small (4 parameters)
+    V1 = V_fixed[:15, :15]
+    fit = DiscrepancyFit(Gauss([1.0, 2.0]), X, Y[:, :1], np.ones((15, 1)), V1)
     fit.optimize(optimizer="differential_evolution", random_state=0)
+    local = DiscrepancyFit(Gauss([1.0, 2.0]), X, Y[:, :1], np.ones((15, 1)), V1)
+    local.optimize(random_state=0)
     assert np.isfinite(fit.log_likelihood)
+    assert fit.log_likelihood >= local.log_likelihood - 1e-3 * abs(local.log_likelihood)
     with pytest.raises(ValueError, match="discrepancy optimizer"):
         fit.optimize(optimizer="adam")
