@@ -8,9 +8,13 @@ README = Path(__file__).resolve().parents[1] / "README.md"
 
 def test_quick_start_runs():
     blocks = re.findall(r"```python\n(.*?)```", README.read_text(), flags=re.S)
-    assert blocks, "README.md has no python code block"
+    assert len(blocks) >= 2, "README.md lost its python code blocks"
     namespace = {}
-    exec(compile(blocks[0], "README.md", "exec"), namespace)
+    for block in blocks:
+        exec(compile(block, "README.md", "exec"), namespace)
+    cal = namespace["cal"]
+    assert abs(cal.theta_mean_[0] / 67.9e3 - 1) < 0.01  # as the comment says
+    assert namespace["std"].shape == (3, 2)
     gp = namespace["gp"]
     assert gp.sigma2_.shape == (2, 2)
     # the comment in the README promises noise close to [1e-4, 2.5e-3]
