@@ -268,3 +268,21 @@ def test_bad_simulators_are_reported_with_context(simulator, exception, match):
     cal = ModularBayesCalibrator(simulator, data.prior, n_simulations=20)
     with pytest.raises(exception, match=match):
         cal.fit(data.X_obs, data.y_obs)
+
+
+def test_inside_a_pipeline_with_routed_simulations():
+    from sklearn.pipeline import Pipeline
+
+    data = make_cantilever(random_state=2)
+    pipe = Pipeline([("calibrate", ModularBayesCalibrator(prior=data.prior))])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        pipe.fit(
+            data.X_obs,
+            data.y_obs,
+            calibrate__X_sim=data.X_sim,
+            calibrate__theta_sim=data.theta_sim,
+            calibrate__y_sim=data.y_sim,
+        )
+    assert pipe.predict(data.X_obs[:2]).shape == (2, 2)
+    assert pipe.score(data.X_obs, data.y_obs) > 0.99
