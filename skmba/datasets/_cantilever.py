@@ -22,8 +22,9 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy import stats
-from scipy.stats import qmc
-from sklearn.utils import Bunch, check_random_state
+from sklearn.utils import Bunch
+
+from skmba.datasets._design import as_generator, latin_hypercube
 
 __all__ = ["CantileverModel", "CantileverReality", "make_cantilever"]
 
@@ -318,29 +319,6 @@ def _check_snr(snr_db, q):
             f"number per response ({q}), got {snr_db!r}"
         )
     return snr
-
-
-def _as_generator(random_state):
-    """A numpy Generator from int / RandomState / Generator / None."""
-    if isinstance(random_state, np.random.Generator):
-        return random_state
-    try:
-        rs = check_random_state(random_state)
-    except ValueError as exc:
-        raise ValueError(
-            "random_state must be None, an int, a numpy RandomState or a numpy "
-            f"Generator, got {random_state!r}"
-        ) from exc
-    return np.random.default_rng(rs.randint(np.iinfo(np.int32).max))
-
-
-def _latin_hypercube(n, d, rng):
-    """``n`` LHS points in the unit hypercube ``[0, 1)^d``."""
-    try:
-        sampler = qmc.LatinHypercube(d, rng=rng)
-    except TypeError:  # scipy < 1.15
-        sampler = qmc.LatinHypercube(d, seed=rng)
-    return sampler.random(n)
 
 
 def _grid(n, d):
@@ -639,7 +617,7 @@ def make_cantilever(
     E_true = _check_positive(E_true, "E_true")
     I_true = _check_positive(I_true, "I_true")
     length = _check_positive(length, "length")
-    rng = _as_generator(random_state)
+    rng = as_generator(random_state)
 
     d, r = len(design_variable_names), len(parameter_names)
     X_bounds = np.array([_DESIGN_BOUNDS[v] for v in design_variable_names])
@@ -664,7 +642,7 @@ def make_cantilever(
 
     # simulations
     if simulation_design == "lhs":
-        unit = _latin_hypercube(n_simulations, d + r, rng)
+        unit = latin_hypercube(n_simulations, d + r, rng)
         k = None
     else:
         unit, k = _grid(n_simulations, d + r)
@@ -673,7 +651,7 @@ def make_cantilever(
     y_sim = simulator(X_sim, theta_sim)
 
     # observations
-    X_obs = _scale(_latin_hypercube(n_observations, d, rng), X_bounds)
+    X_obs = _scale(latin_hypercube(n_observations, d, rng), X_bounds)
     y_obs_true = reality(X_obs)
     signal_variance = y_obs_true.var(axis=0)
     if snr is None:

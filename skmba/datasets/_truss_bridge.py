@@ -141,8 +141,9 @@ import numbers
 
 import numpy as np
 from scipy import linalg, stats
-from scipy.stats import qmc
-from sklearn.utils import Bunch, check_random_state
+from sklearn.utils import Bunch
+
+from skmba.datasets._design import as_generator, latin_hypercube
 
 __all__ = ["make_truss_bridge"]
 
@@ -705,29 +706,6 @@ def _per_response(value, name, q, *, nonnegative):
     return value
 
 
-def _as_generator(random_state):
-    """A numpy Generator from an int, RandomState, Generator or None."""
-    if isinstance(random_state, np.random.Generator):
-        return random_state
-    try:
-        rs = check_random_state(random_state)
-    except ValueError:
-        raise ValueError(
-            "random_state must be None, an int, a numpy RandomState or a numpy "
-            f"Generator; got {random_state!r}."
-        ) from None
-    return np.random.default_rng(rs.randint(np.iinfo(np.int32).max))
-
-
-def _latin_hypercube(n, d, generator):
-    """LatinHypercube samples in [0, 1)^d (``rng=`` from SciPy 1.15, else ``seed=``)."""
-    try:
-        sampler = qmc.LatinHypercube(d=d, rng=generator)
-    except TypeError:  # SciPy < 1.15
-        sampler = qmc.LatinHypercube(d=d, seed=generator)
-    return sampler.random(n)
-
-
 # ------------------------------------------------------------------ public
 def make_truss_bridge(
     n_simulations=60,
@@ -920,8 +898,8 @@ def make_truss_bridge(
         _TrussBridgeResponse(sensor_bars, profile, reference_temperature), [k_true]
     )
 
-    rng = _as_generator(random_state)
-    unit = _latin_hypercube(n_simulations, 2, rng)
+    rng = as_generator(random_state)
+    unit = latin_hypercube(n_simulations, 2, rng)
     X_sim = (t_low + (t_high - t_low) * unit[:, 0])[:, None]
     theta_sim = np.asarray(prior.ppf(unit[:, 1]), dtype=float).reshape(-1, 1)
     y_sim = simulator(X_sim, theta_sim)
