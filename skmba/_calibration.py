@@ -145,6 +145,8 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
     n_jobs : int, default=None
         Parallel chains, module-2 node blocks and module-4 predictions,
         through joblib (so ``joblib.parallel_config(backend="dask")`` works).
+        During ``fit`` and the predictions BLAS is held to one thread: the
+        parallelism is joblib's.
     random_state : int, RandomState instance or None, default=None
         The same seed gives the same result for any ``n_jobs``.
     n_integration_nodes : int, default=None
@@ -381,6 +383,14 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         -------
         self
         """
+        # Parallelism comes from joblib (n_jobs). Multithreaded BLAS on the
+        # small and medium matrices here mostly adds synchronisation, and
+        # numpy and scipy may each carry their own OpenBLAS pool, so that two
+        # "2-thread" pools compete for 2 cores (measured: 2-10x slower).
+        with threadpool_limits(limits=1, user_api="blas"):
+            return self._fit(X, y, X_sim, theta_sim, y_sim)
+
+    def _fit(self, X, y, X_sim, theta_sim, y_sim):
         self._check_params()
         X, y = validate_data(self, X, y, multi_output=True, y_numeric=True)
         X = X.astype(float)
@@ -532,13 +542,10 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         ):
             if hasattr(self, name):
                 delattr(self, name)
-        # Each log-posterior evaluation works on small matrices, where
-        # multithreaded BLAS only adds synchronisation (10x slower on 2 cores).
-        with threadpool_limits(limits=1, user_api="blas"):
-            if sampler == "quadrature":
-                self._posterior_by_quadrature(np.random.RandomState(seeds[3]))
-            else:
-                self._posterior_by_mcmc(seeds[3])
+        if sampler == "quadrature":
+            self._posterior_by_quadrature(np.random.RandomState(seeds[3]))
+        else:
+            self._posterior_by_mcmc(seeds[3])
         if sampler == "quadrature":
             nodes, weights = self.theta_nodes_, self.theta_weights_
             self.theta_mean_ = weights @ nodes

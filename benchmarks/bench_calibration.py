@@ -1,0 +1,436 @@
+"""Benchmark ModularBayesCalibrator end to end and its module-3 likelihood.
+
+Prints, from one run in one process:
+
+(a) The end-to-end ``fit`` time (modules 1-3) of the thesis' section 4.7.3
+    set-up: the cantilever with two calibration parameters (E, I), two
+    responses, 170 simulations and 70 observations, 4 Metropolis-Hastings
+    chains of 5000 draws after 2000 burn-in steps. Also the bulk effective
+    sample size (ESS) and the split R-hat of each parameter, the acceptance
+    rate of each chain, the posterior means of E, I and E·I against the truth
+    (relative errors) and the posterior correlation of E and I (the data
+    identify the product E·I, so it is strongly negative).
+    Target: >= 1000 ESS per parameter in under 60 s.
+(b) The time of one module-3 log-likelihood evaluation (Eq. 4.30, the
+    regression coefficients integrated out) per theta, averaged over 50
+    posterior draws: the Schur-complement path of ``skmba`` (only an ``nq``
+    matrix is factored per theta) against a dense implementation written
+    here (the full ``(N + n) q`` covariance ``V_Y`` of Eqs. 4.25-4.29 is
+    assembled and Cholesky-factored per theta). Both must give the same value:
+    the largest relative difference is printed (target < 1e-8). Run at the
+    4.7.3 size and at a "Tamar-sized" synthetic problem (q=8 responses, 2
+    design variables, 3 parameters, 300 simulations, 150 observations) of a
+    smooth physics-like simulator, with a smooth discrepancy and noise.
+    Both are timed with the BLAS threads as they are and again with BLAS
+    limited to one thread, as ``fit`` runs its MCMC. The lower bound
+    ``(max L_ii / min L_ii)^2`` of the condition number of ``V_Y`` is printed
+    too: the two paths round differently, and their agreement degrades as
+    ``V_Y`` gets ill-conditioned (nearly noise-free data, interpolating
+    emulator). Target: Schur at least 10x cheaper than dense at the Tamar size.
+(c) The end-to-end ``fit`` time of the Tamar-sized problem (4 chains of 2000
+    draws after 1000 burn-in steps) with its ESS and R-hat, next to the 6.38 h
+    the thesis reports for its Tamar bridge calibration.
+    Target: under 10 minutes.
+
+BLAS threads are left as they are (the number of CPUs and of BLAS threads is
+printed); note that ``fit`` itself limits BLAS to one thread during the MCMC,
+while modules 1 and 2 use the BLAS threads as they are. Timings are wall-clock
+times and are disturbed by other processes: with multithreaded BLAS, a busy
+core slows every factorisation down many times (``--blas-threads 1`` limits
+the whole run to one BLAS thread, for a machine shared with other jobs).
+
+Run with ``python benchmarks/bench_calibration.py`` (several minutes). Add
+``--quick`` for a smoke run (about a quarter of the sizes, 4 chains of 500
+draws); its targets are not meant to be met.
+"""
+
+import argparse
+import os
+import time
+import warnings
+
+import numpy as np
+import threadpoolctl
+from scipy import linalg, stats
+
+from skmba import ModularBayesCalibrator
+from skmba._posterior import LOG_2PI
+from skmba._regression import regression_basis
+from skmba.datasets import make_cantilever
+
+THESIS_TAMAR_HOURS = 6.38
+N_THETAS = 50
+REL_TOL = 1e-8
+
+
+def timed(fn):
+    start = time.perf_counter()
+    out = fn()
+    return time.perf_counter() - start, out
+
+
+def fit_recording_warnings(cal, X, y, **sims):
+    """Fit ``cal`` and return the wall time and the warnings it raised."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        elapsed, _ = timed(lambda: cal.fit(X, y, **sims))
+    return elapsed, [f"{w.category.__name__}: {w.message}" for w in caught]
+
+
+def blas_threads():
+    """The largest number of threads of the loaded BLAS libraries."""
+    infos = threadpoolctl.threadpool_info()
+    return max((i["num_threads"] for i in infos if i["user_api"] == "blas"), default=1)
+
+
+def print_environment():
+    print(f"os.cpu_count(): {os.cpu_count()}")
+    blas = [i for i in threadpoolctl.threadpool_info() if i["user_api"] == "blas"]
+    if not blas:
+        print("BLAS: none reported by threadpoolctl")
+    for info in blas:
+        print(
+            f"BLAS: {info['internal_api']} {info.get('version')}, "
+            f"num_threads={info['num_threads']} ({info['prefix']})"
+        )
+    print()
+
+
+def print_diagnostics(cal, names):
+    for j, name in enumerate(names):
+        print(f"  {name:>6s}: bulk ESS {cal.ess_[j]:8.0f}   R-hat {cal.rhat_[j]:.4f}")
+    rates = ", ".join(f"{a:.3f}" for a in cal.acceptance_rate_)
+    print(f"  acceptance rate per chain: {rates}")
+
+
+def print_warnings(caught):
+    if caught:
+        print(f"  warnings during fit ({len(caught)}):")
+        for message in caught:
+            print(f"    {message}")
+    else:
+        print("  warnings during fit: none")
+
+
+# ---------------------------------------------------------------- (a)
+def cantilever_end_to_end(n_sim, n_obs, n_samples, burn_in):
+    data = make_cantilever(
+        n_simulations=n_sim,
+        n_observations=n_obs,
+        parameters=("E", "I"),
+        random_state=0,
+    )
+    cal = ModularBayesCalibrator(
+        prior=data.prior,
+        n_chains=4,
+        n_samples=n_samples,
+        burn_in=burn_in,
+        random_state=0,
+    )
+    elapsed, caught = fit_recording_warnings(
+        cal,
+        data.X_obs,
+        data.y_obs,
+        X_sim=data.X_sim,
+        theta_sim=data.theta_sim,
+        y_sim=data.y_sim,
+    )
+    q, r = data.y_sim.shape[1], data.theta_sim.shape[1]
+    print(
+        f"(a) Cantilever, section 4.7.3: N={n_sim} simulations, n={n_obs} "
+        f"observations, q={q}, r={r}; 4 chains x {n_samples} draws "
+        f"(burn-in {burn_in})"
+    )
+    print(f"  fit (modules 1-3) wall time:  {elapsed:8.2f} s")
+    print_diagnostics(cal, data.parameter_names)
+    samples = cal.theta_samples_
+    truth = np.append(data.theta_true, np.prod(data.theta_true))
+    means = np.append(samples.mean(axis=0), np.prod(samples, axis=1).mean())
+    for name, mean, true in zip(("E", "I", "E*I"), means, truth, strict=True):
+        print(
+            f"  posterior mean {name:>3s}: {mean:12.5g}   truth {true:12.5g}   "
+            f"rel. error {abs(mean - true) / abs(true):8.2%}"
+        )
+    corr = np.corrcoef(samples.T)[0, 1]
+    print(f"  posterior correlation(E, I): {corr:+.4f}")
+    print_warnings(caught)
+    ok = elapsed < 60.0 and np.all(cal.ess_ >= 1000)
+    print(f"  target >= 1000 ESS per parameter in < 60 s: {'met' if ok else 'NOT met'}")
+    print()
+    return cal, elapsed, ok
+
+
+# ---------------------------------------------------------------- (b)
+class DenseGlobalLikelihood:
+    """Eq. 4.30 with the full ``(N + n) q`` covariance factored per theta.
+
+    Built from the same fitted pieces as ``cal._global`` (standardised
+    units): ``V_Y = [[A, B], [B', D]]`` with ``A = Sigma_m ⊗ (R_m(D_m, D_m) +
+    alpha I)``, ``B = Sigma_m ⊗ R_m(D_m, D_e)``, ``D = Lambda ⊗ I + Sigma_m ⊗
+    R_m(D_e, D_e) + Sigma_d ⊗ R_d(X_e, X_e)`` and ``H_Y = [[I ⊗ H_m, 0],
+    [I ⊗ H_m(D_e), I ⊗ H_d]]``. The blocks that do not depend on theta are
+    assembled once; everything of size ``(N + n) q`` that does is rebuilt and
+    factored at every call.
+    """
+
+    def __init__(self, cal):
+        gm = cal._global
+        self.gm = gm
+        N, n, q = gm.N, gm.n, gm.q
+        self.N, self.n, self.q = N, n, q
+        self.M = (N + n) * q
+        R_mm = gm.kernel_m(gm.X_m)
+        R_mm[np.diag_indices(N)] += cal.emulator_alpha
+        self.A = np.kron(gm.sigma2_m, R_mm)
+        self.D_fixed = np.kron(gm.sigma2_d, gm.kernel_d(gm.X_e)) + np.kron(
+            np.diag(gm.noise), np.eye(n)
+        )
+        I = np.eye(q)
+        H_m = regression_basis(gm.X_m, gm.regression_m)
+        self.p_m = H_m.shape[1]
+        self.H_top = np.hstack(
+            [np.kron(I, H_m), np.zeros((N * q, q * gm.p_d))]
+        )  # (Nq, P)
+        self.H_d = np.kron(I, gm.H_d)
+        self.y = np.concatenate([gm.Y_m.T.ravel(), gm.Y_e.T.ravel()])
+
+    def __call__(self, theta_std):
+        gm, N, n, q = self.gm, self.N, self.n, self.q
+        P_e = np.hstack([gm.X_e, np.repeat(theta_std.reshape(1, -1), n, axis=0)])
+        V = np.empty((self.M, self.M))
+        V[: N * q, : N * q] = self.A
+        B = np.kron(gm.sigma2_m, gm.kernel_m(gm.X_m, P_e))
+        V[: N * q, N * q :] = B
+        V[N * q :, : N * q] = B.T
+        V[N * q :, N * q :] = self.D_fixed + np.kron(gm.sigma2_m, gm.kernel_m(P_e))
+        H_me = regression_basis(P_e, gm.regression_m)
+        H = np.vstack(
+            [self.H_top, np.hstack([np.kron(np.eye(q), H_me), self.H_d])]
+        )  # (M, P)
+        factor = linalg.cho_factor(V, lower=True, overwrite_a=True, check_finite=False)
+        self.chol_diag = np.diag(factor[0]).copy()
+        log_det_V = 2.0 * np.sum(np.log(self.chol_diag))
+        Vi_H = linalg.cho_solve(factor, H, check_finite=False)
+        Vi_y = linalg.cho_solve(factor, self.y, check_finite=False)
+        F = H.T @ Vi_H  # H' V^-1 H, (P, P)
+        F_factor = linalg.cho_factor(F, lower=True)
+        log_det_F = 2.0 * np.sum(np.log(np.diag(F_factor[0])))
+        beta = linalg.cho_solve(F_factor, H.T @ Vi_y)  # GLS estimate
+        resid = self.y - H @ beta
+        quad = float(resid @ (Vi_y - Vi_H @ beta))  # r' V^-1 r
+        P = H.shape[1]
+        return -0.5 * ((self.M - P) * LOG_2PI + log_det_V + log_det_F + quad)
+
+
+def time_per_theta(fn, thetas):
+    """Mean and median wall time of ``fn(theta)`` over ``thetas``, and values."""
+    times, values = [], []
+    for t in thetas:
+        elapsed, value = timed(lambda t=t: fn(t))
+        times.append(elapsed)
+        values.append(value)
+    return np.mean(times), np.median(times), np.array(values)
+
+
+def likelihood_timing(cal, label, n_thetas=N_THETAS, seed=0):
+    """Per-theta time of the Schur path and of the dense Eq. 4.30; check both.
+
+    Timed with the BLAS threads as they are, then (when that is more than
+    one) limited to one thread, as ``fit`` runs its MCMC: small
+    factorisations are slower with several threads, much slower when another
+    process occupies a core.
+    """
+    gm = cal._global
+    rng = np.random.default_rng(seed)
+    draws = cal.theta_samples_
+    idx = rng.choice(len(draws), size=n_thetas, replace=False)
+    thetas = cal._std_theta(draws[idx])
+    dense = DenseGlobalLikelihood(cal)
+    print(
+        f"(b) Log-likelihood per theta, {label}: N={gm.N}, n={gm.n}, q={gm.q}, "
+        f"r={thetas.shape[1]}; V_Y is {dense.M} x {dense.M}, S is "
+        f"{gm.n * gm.q} x {gm.n * gm.q}; {n_thetas} posterior draws"
+    )
+    ratios = {}
+    settings = [(f"as they are ({blas_threads()})", None)]
+    if blas_threads() > 1:
+        settings.append(("1", 1))
+    for threads, limit in settings:
+        with threadpoolctl.threadpool_limits(limit):
+            gm._cache = None  # whiten() caches the last theta
+            s_mean, s_median, schur_values = time_per_theta(gm.log_likelihood, thetas)
+            d_mean, d_median, dense_values = time_per_theta(dense, thetas)
+        ratios[threads] = d_mean / s_mean
+        print(f"  BLAS threads {threads}:")
+        print(
+            f"    Schur complement (skmba): {1e3 * s_mean:10.3f} ms mean, "
+            f"{1e3 * s_median:10.3f} ms median"
+        )
+        print(
+            f"    dense Eq. 4.30:           {1e3 * d_mean:10.3f} ms mean, "
+            f"{1e3 * d_median:10.3f} ms median"
+        )
+        print(f"    ratio dense / Schur:      {ratios[threads]:10.1f}")
+    diff = np.abs(schur_values - dense_values)
+    rel = diff / np.abs(dense_values)
+    print(
+        f"  log-likelihood range:     {dense_values.min():.6g} .. "
+        f"{dense_values.max():.6g}"
+    )
+    d = dense.chol_diag
+    print(
+        f"  cond(V_Y) >= {(d.max() / d.min()) ** 2:.2e} (Cholesky diagonal, last theta)"
+    )
+    agree = bool(np.all(rel < REL_TOL))
+    print(f"  max absolute difference:  {diff.max():10.2e}")
+    print(
+        f"  max relative difference:  {rel.max():10.2e}  "
+        f"({'OK' if agree else 'MISMATCH'}, tolerance {REL_TOL:g})"
+    )
+    print()
+    return ratios, agree
+
+
+# ---------------------------------------------------------------- (c)
+THETA_TRUE = np.array([1.2, 0.9, 0.6])
+THETA_BOUNDS = np.array([[0.5, 2.0], [0.4, 1.6], [0.2, 1.2]])
+
+
+def tamar_simulator(X, theta):
+    """Eight smooth responses of two design variables and three parameters.
+
+    ``x1`` plays a load, ``x2`` a position; ``theta`` a stiffness, a decay rate
+    and a coupling. The responses mix ratios, exponentials, trigonometric and
+    logarithmic terms, so none is a linear combination of the others.
+    """
+    x1, x2 = X[:, 0], X[:, 1]
+    t1, t2, t3 = theta[:, 0], theta[:, 1], theta[:, 2]
+    return np.column_stack(
+        [
+            x1 * (1.0 + 0.5 * x2**2) / t1,
+            (1.0 + x1) * np.exp(-t2 * x2),
+            t3 * np.sin(np.pi * x2) + 0.25 * x1 * t1,
+            x1**2 / (t1 * t2) + 0.2 * x2,
+            (1.0 + t3 * x1) * np.exp(-0.5 * t2 * x2**2),
+            np.log1p(t1 * x1 + t2 * x2),
+            x1 * x2 / t2 + t3 * np.cos(x1),
+            np.sqrt(t1) * (1.0 + x2) - t3 * x1 * x2,
+        ]
+    )
+
+
+def tamar_discrepancy(X):
+    """A smooth, response-dependent model error (a few % of each response)."""
+    x1, x2 = X[:, 0], X[:, 1]
+    k = np.arange(1, 9)
+    shape = 0.5 * x1 * x2 + 0.3 * np.sin(2.0 * x2) * x1
+    return 0.05 * shape[:, None] * (1.0 + 0.1 * k) + 0.01 * np.outer(x2**2, k % 3)
+
+
+def make_tamar_sized(n_sim, n_obs, seed=0):
+    """Simulations (LHS over x and the prior box) and noisy field data."""
+    rng = np.random.default_rng(seed)
+    lo, hi = THETA_BOUNDS[:, 0], THETA_BOUNDS[:, 1]
+    u = stats.qmc.LatinHypercube(d=5, seed=rng).random(n_sim)
+    X_sim = u[:, :2]
+    theta_sim = lo + (hi - lo) * u[:, 2:]
+    y_sim = tamar_simulator(X_sim, theta_sim)
+    # Observations well inside the simulated range of x (no extrapolation).
+    X_obs = 0.02 + 0.96 * stats.qmc.LatinHypercube(d=2, seed=rng).random(n_obs)
+    reality = tamar_simulator(
+        X_obs, np.repeat(THETA_TRUE[None], n_obs, axis=0)
+    ) + tamar_discrepancy(X_obs)
+    noise_sd = 0.01 * y_sim.std(axis=0)
+    y_obs = reality + noise_sd * rng.standard_normal(reality.shape)
+    prior = [stats.uniform(a, b - a) for a, b in THETA_BOUNDS]
+    return X_sim, theta_sim, y_sim, X_obs, y_obs, prior
+
+
+def tamar_end_to_end(n_sim, n_obs, n_samples, burn_in):
+    X_sim, theta_sim, y_sim, X_obs, y_obs, prior = make_tamar_sized(n_sim, n_obs)
+    Z = (y_sim - y_sim.mean(axis=0)) / y_sim.std(axis=0)
+    sv = np.linalg.svd(Z, compute_uv=False)
+    cal = ModularBayesCalibrator(
+        prior=prior,
+        n_chains=4,
+        n_samples=n_samples,
+        burn_in=burn_in,
+        random_state=0,
+    )
+    elapsed, caught = fit_recording_warnings(
+        cal, X_obs, y_obs, X_sim=X_sim, theta_sim=theta_sim, y_sim=y_sim
+    )
+    print(
+        f"(c) Tamar-sized synthetic problem: N={n_sim} simulations, n={n_obs} "
+        f"observations, q={y_sim.shape[1]}, d=2, r=3; 4 chains x {n_samples} "
+        f"draws (burn-in {burn_in})"
+    )
+    print(
+        f"  smallest / largest singular value of the standardised y_sim: "
+        f"{sv[-1] / sv[0]:.3g} (responses not linearly dependent)"
+    )
+    print(f"  fit (modules 1-3) wall time:  {elapsed:8.2f} s")
+    print(
+        f"  thesis (Tamar bridge):        {THESIS_TAMAR_HOURS:.2f} h = "
+        f"{THESIS_TAMAR_HOURS * 3600:.0f} s  (ratio thesis / this: "
+        f"{THESIS_TAMAR_HOURS * 3600 / elapsed:.0f})"
+    )
+    print_diagnostics(cal, ("theta1", "theta2", "theta3"))
+    mean = cal.theta_samples_.mean(axis=0)
+    sd = cal.theta_samples_.std(axis=0)
+    for j in range(3):
+        print(
+            f"  posterior theta{j + 1}: {mean[j]:.4f} +- {sd[j]:.4f}   "
+            f"truth {THETA_TRUE[j]:.4f}"
+        )
+    print_warnings(caught)
+    ok = elapsed < 600.0
+    print(f"  target < 10 min: {'met' if ok else 'NOT met'}")
+    print()
+    return cal, elapsed, ok
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="small smoke run")
+    parser.add_argument(
+        "--blas-threads",
+        type=int,
+        default=None,
+        help="limit BLAS to this many threads for the whole run (default: as they are)",
+    )
+    args = parser.parse_args()
+    with threadpoolctl.threadpool_limits(args.blas_threads):
+        run(args.quick, args.blas_threads)
+
+
+def run(quick, blas_limit):
+    if blas_limit is not None:
+        print(f"BLAS limited to {blas_limit} thread(s) by --blas-threads")
+    print_environment()
+    if quick:
+        cant = {"n_sim": 44, "n_obs": 18, "n_samples": 500, "burn_in": 250}
+        tamar = {"n_sim": 60, "n_obs": 24, "n_samples": 500, "burn_in": 250}
+    else:
+        cant = {"n_sim": 170, "n_obs": 70, "n_samples": 5000, "burn_in": 2000}
+        tamar = {"n_sim": 300, "n_obs": 150, "n_samples": 2000, "burn_in": 1000}
+    start = time.perf_counter()
+    cal_cant, _, ok_a = cantilever_end_to_end(**cant)
+    _, agree_cant = likelihood_timing(cal_cant, "cantilever 4.7.3 size")
+    cal_tamar, _, ok_c = tamar_end_to_end(**tamar)
+    ratios, agree_tamar = likelihood_timing(cal_tamar, "Tamar size")
+    agree = agree_cant and agree_tamar
+    print("Summary" + (" (--quick: reduced sizes, targets not applicable)" * quick))
+    print(f"  (a) >= 1000 ESS per parameter in < 60 s:         {ok_a}")
+    print(f"  (b) Schur == dense Eq. 4.30 (rel. < {REL_TOL:g}):    {agree}")
+    for threads, ratio in ratios.items():
+        print(
+            f"  (b) Tamar size, BLAS threads {threads}: dense / Schur = "
+            f"{ratio:.1f} (>= 10: {ratio >= 10})"
+        )
+    print(f"  (c) Tamar-sized fit < 10 min:                    {ok_c}")
+    print(f"  total benchmark wall time: {time.perf_counter() - start:.1f} s")
+
+
+if __name__ == "__main__":
+    main()
