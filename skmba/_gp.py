@@ -10,6 +10,7 @@ from sklearn.exceptions import ConvergenceWarning
 from sklearn.gaussian_process.kernels import Kernel
 from sklearn.utils import check_random_state
 from sklearn.utils.validation import check_is_fitted, validate_data
+from threadpoolctl import threadpool_limits
 
 from skmba._likelihood import (
     NoiseFreeLikelihood,
@@ -243,6 +244,14 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
         -------
         self : MultiResponseGP
         """
+        # numpy and scipy may each bring an OpenBLAS pool; on few cores the
+        # pools compete and small-matrix work slows down 2-20x (measured:
+        # the noisy q=16 fit of benchmarks/bench_gp.py, 17 s -> 1 s). The
+        # likelihood work here is sequential, so hold BLAS to one thread.
+        with threadpool_limits(limits=1, user_api="blas"):
+            return self._fit(X, y)
+
+    def _fit(self, X, y):
         self._validate_params_()
         y_ndim = np.asarray(y).ndim
         if y_ndim > 2:
