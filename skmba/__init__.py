@@ -3,6 +3,12 @@
 A scikit-learn compatible implementation of the modular Bayesian approach
 (MBA) to the calibration of physics-based models, with multi-response
 Gaussian processes as emulators and discrepancy models.
+
+Examples
+--------
+>>> import skmba
+>>> sorted(name for name in skmba.__all__ if not name.startswith("_"))
+['ModularBayesCalibrator', 'MultiResponseGP']
 """
 
 from skmba._calibration import ModularBayesCalibrator

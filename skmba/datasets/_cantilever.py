@@ -24,7 +24,7 @@ import numpy as np
 from scipy import stats
 from sklearn.utils import Bunch
 
-from skmba.datasets._design import as_generator, latin_hypercube
+from skmba.datasets._design import as_generator, latin_hypercube, per_response
 
 __all__ = ["CantileverModel", "CantileverReality", "make_cantilever"]
 
@@ -302,23 +302,6 @@ def _check_positive(value, argument, allow_inf=False):
         )
         raise ValueError(f"{argument} must be a {kind}, got {value!r}")
     return value
-
-
-def _check_snr(snr_db, q):
-    if snr_db is None:
-        return None
-    try:
-        snr = np.asarray(snr_db, dtype=float)
-    except (TypeError, ValueError):
-        snr = np.array(np.nan)
-    if snr.ndim == 0:
-        snr = np.full(q, float(snr))
-    if snr.shape != (q,) or not np.all(np.isfinite(snr)):
-        raise ValueError(
-            "snr_db must be None, a finite number or a sequence of one finite "
-            f"number per response ({q}), got {snr_db!r}"
-        )
-    return snr
 
 
 def _grid(n, d):
@@ -604,7 +587,7 @@ def make_cantilever(
     if prior not in _PRIORS:
         raise ValueError(f"prior must be one of {_PRIORS}, got {prior!r}")
     q = len(response_names)
-    snr = _check_snr(snr_db, q)
+    snr = None if snr_db is None else per_response(snr_db, "snr_db", q)
     n_outliers = _check_int(n_outliers, "n_outliers", 0)
     if n_outliers > n_observations:
         raise ValueError(

@@ -47,3 +47,27 @@ def latin_hypercube(n, d, generator):
     except TypeError:  # SciPy < 1.15
         sampler = qmc.LatinHypercube(d=d, seed=generator)
     return sampler.random(n)
+
+
+def per_response(value, name, q, *, nonnegative=False):
+    """A scalar or one value per response, as a finite (q,) array.
+
+    Examples
+    --------
+    >>> per_response(18.0, "snr_db", 2)
+    array([18., 18.])
+    """
+    try:
+        value = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        value = np.array(np.nan)
+    if value.ndim == 0:
+        value = np.full(q, float(value))
+    if value.shape != (q,) or not np.all(np.isfinite(value)):
+        raise ValueError(
+            f"{name} must be a finite scalar or one value per response ({q}); "
+            f"got {value!r}."
+        )
+    if nonnegative and np.any(value < 0.0):
+        raise ValueError(f"{name} must be >= 0; got {value!r}.")
+    return value

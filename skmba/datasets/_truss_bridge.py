@@ -143,7 +143,7 @@ import numpy as np
 from scipy import linalg, stats
 from sklearn.utils import Bunch
 
-from skmba.datasets._design import as_generator, latin_hypercube
+from skmba.datasets._design import as_generator, latin_hypercube, per_response
 
 __all__ = ["make_truss_bridge"]
 
@@ -689,23 +689,6 @@ def _check_temperature_range(temperature_range):
     return low, high
 
 
-def _per_response(value, name, q, *, nonnegative):
-    try:
-        value = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        value = np.array(np.nan)
-    if value.ndim == 0:
-        value = np.full(q, float(value))
-    if value.shape != (q,) or not np.all(np.isfinite(value)):
-        raise ValueError(
-            f"{name} must be a finite scalar or one value per response ({q}); "
-            f"got {value!r}."
-        )
-    if nonnegative and np.any(value < 0.0):
-        raise ValueError(f"{name} must be >= 0; got {value!r}.")
-    return value
-
-
 # ------------------------------------------------------------------ public
 def make_truss_bridge(
     n_simulations=60,
@@ -908,10 +891,10 @@ def make_truss_bridge(
     y_obs_true = reality(X_obs)
     snr = None
     if snr_db is not None:
-        snr = _per_response(snr_db, "snr_db", q, nonnegative=False)
+        snr = per_response(snr_db, "snr_db", q, nonnegative=False)
         noise_variance = np.var(y_obs_true, axis=0) / 10.0 ** (snr / 10.0)
     elif noise_std is not None:
-        std = _per_response(noise_std, "noise_std", q, nonnegative=True)
+        std = per_response(noise_std, "noise_std", q, nonnegative=True)
         noise_variance = std**2
     else:
         noise_variance = np.zeros(q)
