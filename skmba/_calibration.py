@@ -563,9 +563,6 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
     def _std_theta(self, theta):
         return (theta - self.theta_mean_sim_) / self.theta_scale_
 
-    def _user_theta(self, theta_std):
-        return theta_std * self.theta_scale_ + self.theta_mean_sim_
-
     def _integration_nodes(self, seed):
         r = self.prior_.dim
         rule = self.integration

@@ -262,16 +262,3 @@ class KroneckerEigen:
     def to_eigenbasis(self, Y):
         """``U' Y M``: the (N, q) coordinates in which ``V`` is diagonal."""
         return self.U.T @ Y @ self.M
-
-    def solve(self, Y):
-        """``V^-1 vec(Y)`` returned as an (N, q) array.
-
-        Examples
-        --------
-        >>> import numpy as np
-        >>> ke = KroneckerEigen(np.array([1.0, 1.0]), np.eye(2), np.eye(1), [1.0])
-        >>> ke.solve(np.array([[2.0], [4.0]]))
-        array([[1.],
-               [2.]])
-        """
-        return self.U @ (self.w * self.to_eigenbasis(Y)) @ self.M.T
