@@ -5,7 +5,7 @@ from numbers import Integral
 
 import numpy as np
 from joblib import Parallel, delayed
-from scipy import stats
+from scipy import optimize, stats
 from sklearn.base import BaseEstimator, MultiOutputMixin, RegressorMixin, clone
 from sklearn.gaussian_process.kernels import Kernel
 from sklearn.utils import check_random_state
@@ -724,7 +724,6 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         whose steps follow the posterior's own scale. Both only initialise the
         Metropolis-Hastings chains.
         """
-        from scipy import optimize
 
         def negative(t):
             value = self._log_density_u(t)

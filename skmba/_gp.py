@@ -308,9 +308,9 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
             self._fit_state = None
             self.log_marginal_likelihood_value_ = np.inf
         elif self.noise:
-            self._fit_noisy(kernel, Ya)
+            self._fit_noisy(kernel, Ya, self._differences(kernel))
         else:
-            self._fit_noise_free(kernel, Ya)
+            self._fit_noise_free(kernel, Ya, self._differences(kernel))
         self._set_user_attributes(Y.shape[1], p)
         return self
 
@@ -371,7 +371,7 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
             )
         return best[0]
 
-    def _fit_concentrated(self, kernel, Y, with_nugget):
+    def _fit_concentrated(self, kernel, Y, with_nugget, differences):
         """Maximise the likelihood with beta and Sigma2 concentrated out.
 
         Covariance ``Sigma2 ⊗ (R + (alpha + tau) I)``; ``tau`` (a noise to
@@ -382,7 +382,6 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
         H = self._H
         n_kernel = kernel.n_dims
         n = len(self.X_train_)
-        differences = self._differences(kernel)
 
         def likelihood(params, eval_gradient):
             k = kernel.clone_with_theta(params[:n_kernel]) if n_kernel else kernel
@@ -433,10 +432,12 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
         tau = float(np.exp(x0[n_kernel])) if with_nugget else 0.0
         return fitted, tau, likelihood(x0, False)
 
-    def _fit_noise_free(self, kernel, Y):
-        self.kernel_, _, self._fit_state = self._fit_concentrated(kernel, Y, False)
+    def _fit_noise_free(self, kernel, Y, differences):
+        self.kernel_, _, self._fit_state = self._fit_concentrated(
+            kernel, Y, False, differences
+        )
 
-    def _fit_noisy(self, kernel, Y):
+    def _fit_noisy(self, kernel, Y, differences):
         """Fit ``Sigma2 ⊗ R + Lambda ⊗ I`` on the profile likelihood.
 
         1. A concentrated fit with noise proportional to ``Sigma2``
@@ -456,7 +457,7 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
         H = self._H
         n_kernel = kernel.n_dims
         try:
-            kernel, tau, stage1 = self._fit_concentrated(kernel, Y, with_nugget=True)
+            kernel, tau, stage1 = self._fit_concentrated(kernel, Y, True, differences)
             sigma2 = stage1.sigma2
             lam = tau * np.diag(sigma2)
         except FactorizationError:
@@ -468,7 +469,6 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
             lam = 0.1 * self._scale**2
         lam_bounds = np.exp(_LOG_NOISE_BOUNDS) * self._scale[:, None] ** 2
         warm = {"sigma2": sigma2, "lam": np.clip(lam, *lam_bounds.T), "best": -np.inf}
-        differences = self._differences(kernel)
         failures = []
 
         def profile(k, eval_gradient):
