@@ -437,75 +437,16 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
                 UserWarning,
                 stacklevel=2,
             )
-        self.X_sim_, self.theta_sim_, self.y_sim_ = X_sim, theta_sim, y_sim
-
-        # Standardisation with the simulations as reference (appendix C.2).
-        def centre_scale(A):
-            scale = A.std(axis=0)
-            return A.mean(axis=0), np.where(scale > 0, scale, 1.0)
-
-        self.X_mean_, self.X_scale_ = centre_scale(X_sim)
-        self.theta_mean_sim_, self.theta_scale_ = centre_scale(theta_sim)
-        self.y_mean_, self.y_scale_ = centre_scale(y_sim)
-        Xs_sim = self._std_x(X_sim)
-        ts_sim = self._std_theta(theta_sim)
-        Z_sim = np.hstack([Xs_sim, ts_sim])
-        Ys_sim = (y_sim - self.y_mean_) / self.y_scale_
+        seeds = rng.randint(2**31 - 1, size=4)
+        Z_sim, Ys_sim = self._fit_emulator(X_sim, theta_sim, y_sim, seeds[0])
+        state = self.model_gp_._fit_state
         Xs_obs = self._std_x(X)
         Ys_obs = (Y - self.y_mean_) / self.y_scale_
-        seeds = rng.randint(2**31 - 1, size=4)
-
-        # Module 1: emulator of the model.
-        kernel_m = (
-            default_kernel(Z_sim) if self.model_kernel is None else self.model_kernel
-        )
-        self.model_gp_ = MultiResponseGP(
-            kernel_m,
-            regression=self.regression,
-            alpha=self.emulator_alpha,
-            n_restarts_optimizer=self.n_restarts_optimizer,
-            normalize_y=False,
-            random_state=seeds[0],
-            response_nugget=1e-8,
-        ).fit(Z_sim, Ys_sim)
-        state = self.model_gp_._fit_state
-        if state is None or not np.all(self.model_gp_._active):
-            raise ValueError(
-                "A simulated response is constant over the simulations: it "
-                "carries no information on theta. Remove it from y and y_sim."
-            )
 
         # Module 2: integrate the emulator over the prior, then fit the
         # discrepancy and the noise.
-        nodes, weights = self._integration_nodes(seeds[1])
-        mean_bar, corr_bar, spread = integrate_emulator(
-            state,
-            self.model_gp_.kernel_,
-            self.regression,
-            Z_sim,
-            Xs_obs,
-            self._std_theta(nodes),
-            weights,
-            n_jobs=self.n_jobs,
-        )
-        V_bar = np.kron(state.sigma2, corr_bar)
-        if self.module2_variance == "total":
-            V_bar = V_bar + spread
-        V_bar = self._repair_psd(V_bar)
-        kernel_d = (
-            default_kernel(Xs_obs)
-            if self.discrepancy_kernel is None
-            else clone(self.discrepancy_kernel)
-        )
-        H_d = regression_basis(Xs_obs, self.discrepancy_regression)
-        disc = DiscrepancyFit(kernel_d, Xs_obs, Ys_obs - mean_bar, H_d, V_bar)
-        if not self.noise:
-            disc.fix_noise(1e-10)
-        disc.optimize(
-            optimizer=self.discrepancy_optimizer,
-            n_restarts=self.n_restarts_optimizer,
-            random_state=seeds[2],
-        )
+        mean_bar, V_bar = self._integrated_emulator(Xs_obs, seeds[1])
+        disc = self._fit_discrepancy(Xs_obs, Ys_obs - mean_bar, V_bar, seeds[2])
         self.discrepancy_kernel_ = disc.kernel_
         self.discrepancy_sigma2_ = disc.sigma2 * np.outer(self.y_scale_, self.y_scale_)
         self.discrepancy_beta_ = disc.beta * self.y_scale_
@@ -555,6 +496,91 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
             self.theta_mean_ = self.theta_samples_.mean(axis=0)
             self.theta_cov_ = np.atleast_2d(np.cov(self.theta_samples_.T))
         return self
+
+    # ------------------------------------------------- module steps
+    def _fit_emulator(self, X_sim, theta_sim, y_sim, seed):
+        """Standardise with the simulations as reference; fit module 1.
+
+        Sets ``X_sim_``, ``theta_sim_``, ``y_sim_``, the standardisation
+        (``X_mean_``, ``X_scale_``, ``theta_mean_sim_``, ``theta_scale_``,
+        ``y_mean_``, ``y_scale_``; appendix C.2) and ``model_gp_``. Returns the
+        standardised simulation inputs ``[X, theta]`` and responses.
+        """
+        self.X_sim_, self.theta_sim_, self.y_sim_ = X_sim, theta_sim, y_sim
+
+        def centre_scale(A):
+            scale = A.std(axis=0)
+            return A.mean(axis=0), np.where(scale > 0, scale, 1.0)
+
+        self.X_mean_, self.X_scale_ = centre_scale(X_sim)
+        self.theta_mean_sim_, self.theta_scale_ = centre_scale(theta_sim)
+        self.y_mean_, self.y_scale_ = centre_scale(y_sim)
+        Z_sim = np.hstack([self._std_x(X_sim), self._std_theta(theta_sim)])
+        Ys_sim = (y_sim - self.y_mean_) / self.y_scale_
+        kernel_m = (
+            default_kernel(Z_sim) if self.model_kernel is None else self.model_kernel
+        )
+        self.model_gp_ = MultiResponseGP(
+            kernel_m,
+            regression=self.regression,
+            alpha=self.emulator_alpha,
+            n_restarts_optimizer=self.n_restarts_optimizer,
+            normalize_y=False,
+            random_state=seed,
+            response_nugget=1e-8,
+        ).fit(Z_sim, Ys_sim)
+        if self.model_gp_._fit_state is None or not np.all(self.model_gp_._active):
+            raise ValueError(
+                "A simulated response is constant over the simulations: it "
+                "carries no information on theta. Remove it from y and y_sim."
+            )
+        self._Z_sim = Z_sim
+        return Z_sim, Ys_sim
+
+    def _integrated_emulator(self, Xs, seed):
+        """Module 2, Eqs. 4.14-4.17 at standardised inputs ``Xs`` (n, d).
+
+        Returns the prior-integrated mean (n, q) and the covariance
+        (nq, nq; ``module2_variance`` decides whether the spread of the mean
+        is added), repaired to be positive definite.
+        """
+        state = self.model_gp_._fit_state
+        nodes, weights = self._integration_nodes(seed)
+        mean_bar, corr_bar, spread = integrate_emulator(
+            state,
+            self.model_gp_.kernel_,
+            self.regression,
+            self._Z_sim,
+            Xs,
+            self._std_theta(nodes),
+            weights,
+            n_jobs=self.n_jobs,
+        )
+        V_bar = np.kron(state.sigma2, corr_bar)
+        if self.module2_variance == "total":
+            V_bar = V_bar + spread
+        return mean_bar, self._repair_psd(V_bar)
+
+    def _fit_discrepancy(self, Xs, residual, V_bar, seed):
+        """Module 2, Eq. 4.19: discrepancy GP and noise by maximum likelihood.
+
+        ``residual`` is the standardised field data minus the integrated
+        emulator mean; returns the optimised :class:`DiscrepancyFit`.
+        """
+        kernel_d = (
+            default_kernel(Xs)
+            if self.discrepancy_kernel is None
+            else clone(self.discrepancy_kernel)
+        )
+        H_d = regression_basis(Xs, self.discrepancy_regression)
+        disc = DiscrepancyFit(kernel_d, Xs, residual, H_d, V_bar)
+        if not self.noise:
+            disc.fix_noise(1e-10)
+        return disc.optimize(
+            optimizer=self.discrepancy_optimizer,
+            n_restarts=self.n_restarts_optimizer,
+            random_state=seed,
+        )
 
     # ----------------------------------------------------------- helpers
     def _std_x(self, X):
