@@ -31,6 +31,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from skmba import MultiResponseGP
+from skmba.plotting import plot_gp_prediction
 
 rng = np.random.default_rng(0)
 
@@ -111,8 +112,22 @@ print("share of the true curve inside the 95 % band:", inside.mean(axis=0))
 
 samples = gp.sample_y(X_grid, n_samples=3, random_state=1)  # (241, 2, 3)
 
-labels = ["strain [µε]", "displacement [mm]"]
-fig, axes = plt.subplots(2, 1, figsize=(8, 7.5), sharex=True, layout="constrained")
+# %%
+# :func:`~skmba.plotting.plot_gp_prediction` draws the mean, the 95 % band
+# of the true response and the readings, one panel per response. We add the
+# wider band of a new reading, the true curves, the afternoon gap and, on
+# the displacement panel, the joint draws.
+
+fig = plot_gp_prediction(
+    gp,
+    X_grid,
+    X_train=X_train,
+    y_train=y_train,
+    names=["strain", "displacement"],
+    units=["µε", "mm"],
+    input_names=["time of day [h]"],
+)
+axes = fig.axes
 for k, ax in enumerate(axes):
     ax.axvspan(14.0, 18.0, color="0.93", zorder=0)
     ax.fill_between(
@@ -120,30 +135,11 @@ for k, ax in enumerate(axes):
         mean[:, k] - 1.96 * std_reading[:, k],
         mean[:, k] + 1.96 * std_reading[:, k],
         color="tab:blue",
-        alpha=0.15,
+        alpha=0.12,
         linewidth=0,
         label="95 % band, new reading",
     )
-    ax.fill_between(
-        t_grid,
-        mean[:, k] - 1.96 * std[:, k],
-        mean[:, k] + 1.96 * std[:, k],
-        color="tab:blue",
-        alpha=0.35,
-        linewidth=0,
-        label="95 % band, true response",
-    )
     ax.plot(t_grid, truth[:, k], "k--", linewidth=1.2, label="true response")
-    ax.plot(t_grid, mean[:, k], color="tab:blue", linewidth=2, label="GP mean")
-    ax.plot(
-        t_train,
-        y_train[:, k],
-        "o",
-        color="tab:red",
-        markersize=4,
-        label="readings (training data)",
-    )
-    ax.set_ylabel(labels[k])
     ax.grid(alpha=0.3)
 
 # Joint draws on the displacement panel: each is a plausible true curve.
@@ -160,9 +156,14 @@ for j in range(samples.shape[2]):
 axes[0].set_title("Strain gauge on the deck")
 axes[1].set_title("Displacement transducer at the bearing")
 axes[0].text(16.0, 0.0, "no data", ha="center", va="center", color="0.4")
-axes[1].set_xlabel("time of day [h]")
 axes[1].set_xlim(0.0, 24.0)
-fig.legend(*axes[1].get_legend_handles_labels(), loc="outside lower center", ncols=3)
+for ax in axes:
+    ax.get_legend().remove()
+handles, labels = axes[1].get_legend_handles_labels()
+renamed = {"95 % band": "95 % band, true response", "training data": "readings"}
+labels = [renamed.get(label, label) for label in labels]
+fig.legend(handles, labels, loc="outside lower center", ncols=3)
+fig.set_size_inches(8, 7.5)
 plt.show()
 
 # %%

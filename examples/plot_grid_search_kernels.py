@@ -35,6 +35,7 @@ from sklearn.preprocessing import StandardScaler
 from skmba import MultiResponseGP
 from skmba.datasets import make_cantilever
 from skmba.kernels import Cubic, Exp, Gauss, Linear, Spherical
+from skmba.plotting import plot_gp_prediction
 
 data = make_cantilever(n_simulations=60, random_state=0)
 X = np.hstack([data.X_sim, data.theta_sim])
@@ -191,3 +192,34 @@ print("fitted roughness per scaled input (F, E):", default[-1].kernel_.roughness
 # ``ConvergenceWarning``\ s are of the same harmless kind as above). The
 # fitted roughness of the modulus E is more than ten times that of the
 # force F, as the physics says: the responses bend in E and hardly in F.
+
+# %%
+# Where is the emulator uncertain?
+# --------------------------------
+# :func:`~skmba.plotting.plot_gp_prediction` draws a GP with two inputs as
+# filled contours of its mean and of the half-width of its 95 % band, with
+# the simulations marked. It accepts any regressor whose ``predict`` takes
+# ``return_std=True``, such as this pipeline (the scaler is applied
+# inside, so the axes are in user units).
+
+F_grid, E_grid = np.meshgrid(
+    np.linspace(*data.X_bounds[0], 40), np.linspace(*data.theta_bounds[0], 40)
+)
+grid = np.column_stack([F_grid.ravel(), E_grid.ravel()])
+fig = plot_gp_prediction(
+    default,
+    grid,
+    X_train=X,
+    names=["tip displacement", "energy"],
+    units=data.response_units,
+    input_names=["tip force F [N]", "Young's modulus E [MPa]"],
+)
+plt.show()
+
+# %%
+# The mean surfaces show the F/E and F²/E shapes of the two responses. The
+# band is a tiny fraction of the response almost everywhere: 60 simulations
+# are plenty for such smooth functions. It grows only in the corner of large
+# force and small modulus, where the responses are largest and bend most
+# and the Latin hypercube left no simulation: that is where more runs would
+# help the emulator most.

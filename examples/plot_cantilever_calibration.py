@@ -1,0 +1,131 @@
+"""
+===================================================================
+Calibrating Young's modulus of a cantilever with model discrepancy
+===================================================================
+
+The reference problem of thesis section 4.7.1. A cantilever beam of length
+3 m carries a tip force F between 1 and 10 kN. Its model is an
+Euler-Bernoulli beam with a *fixed* support; the real beam sits on a
+rotational *spring* (stiffness K* = 1.5e12 N·mm/rad), which the model does
+not know about. From 25 noise-free measurements of the tip displacement and
+of the deformation energy, and 70 runs of the model, we want Young's
+modulus E (true value E* = 70 GPa) and honest predictions of the beam.
+
+:class:`~skmba.ModularBayesCalibrator` runs the four modules of the modular
+Bayesian approach: an emulator of the model (module 1), a Gaussian process
+for the discrepancy between model and reality (module 2), the posterior of
+E (module 3) and the calibrated predictions (module 4). We look at the
+posterior against the prior and the truth with
+:func:`~skmba.plotting.plot_posterior`, and at the three components of the
+prediction with :func:`~skmba.plotting.plot_calibrated_components`.
+"""
+
+# %%
+# Data: simulations of the model, measurements of the real beam
+# --------------------------------------------------------------
+# :func:`~skmba.datasets.make_cantilever` returns the 70 simulations on a
+# Latin hypercube over (F, E), the 25 measurements, the uniform prior
+# E ~ U(20, 100) GPa of the thesis and the closed-form model and reality.
+# Units are N, mm and MPa.
+
+import matplotlib.pyplot as plt
+import numpy as np
+
+from skmba import ModularBayesCalibrator
+from skmba.datasets import make_cantilever
+from skmba.plotting import plot_calibrated_components, plot_posterior
+
+data = make_cantilever(n_simulations=70, n_observations=25, random_state=1)
+print(data.DESCR)
+
+# %%
+# Calibration
+# -----------
+# With one parameter, the posterior is computed by quadrature; the
+# calibrator also estimates a (here negligible) measurement noise.
+
+cal = ModularBayesCalibrator(prior=data.prior, random_state=0)
+cal.fit(
+    data.X_obs,
+    data.y_obs,
+    X_sim=data.X_sim,
+    theta_sim=data.theta_sim,
+    y_sim=data.y_sim,
+)
+E_true = data.theta_true[0]
+E_mean = cal.theta_mean_[0]
+low, high = np.quantile(cal.theta_samples_[:, 0], [0.025, 0.975])
+print(f"posterior mean of E: {E_mean:8.0f} MPa (truth {E_true:.0f} MPa)")
+print(f"relative error:      {E_mean / E_true - 1:+8.2%}")
+print(f"95 % interval:       [{low:.0f}, {high:.0f}] MPa")
+print(f"posterior std:       {np.sqrt(cal.theta_cov_[0, 0]):8.0f} MPa")
+
+# %%
+# E is found within a few percent, as in the thesis (which reports
+# 70302 ± 6915 MPa), but our posterior is much narrower and does *not*
+# contain E*. This is not a numerical accident but physics. For a tip load
+# the spring adds the same fraction ``3 E* I / (K* L)`` to the tip
+# displacement and to the energy of the model, so the data are explained
+# exactly by a fixed-support beam with the *effective* modulus
+# ``E* / (1 + 3 E* I / (K* L))``, and a discrepancy of zero. Both responses
+# say the same thing about E, so nothing tells the discrepancy apart from a
+# softer beam: the two are confounded, and the calibration returns the
+# effective modulus with confidence.
+
+L, I, K = 3000.0, 6.75e8, 1.5e12
+E_effective = E_true / (1 + 3 * E_true * I / (K * L))
+print(f"effective modulus E*/(1 + 3E*I/(K*L)) = {E_effective:.0f} MPa")
+
+# %%
+# Posterior, prior and truth
+# --------------------------
+# The posterior (histogram) is a needle compared with the prior, which is
+# flat over 20-100 GPa: the axis is zoomed on the posterior and the truth
+# (``limits="auto"``; ``limits="prior"`` shows the prior's whole range). We
+# add the effective modulus to the figure.
+
+fig = plot_posterior(cal, true_value=data.theta_true, names=["E"], units=["MPa"])
+ax = fig.axes[0]
+ax.axvline(E_effective, color="C2", linewidth=1.5, label="effective modulus")
+ax.legend(fontsize="small", loc="upper center")
+fig.set_size_inches(6.4, 4.0)
+plt.show()
+
+# %%
+# Model, discrepancy and calibrated prediction
+# --------------------------------------------
+# Module 4 averages the model and the discrepancy over the posterior of E
+# (thesis Fig. 4.14). Left: the model ``y^m(F, E)``; centre: the
+# discrepancy, with the true one (the spring's contribution at E*) dashed;
+# right: a new measurement, with the true process dashed.
+
+
+def true_discrepancy(X):
+    """Reality minus the model at the true modulus: the spring's effect."""
+    theta = np.full((len(X), 1), E_true)
+    return data.reality(X) - data.simulator(X, theta)
+
+
+F = np.linspace(1e3, 10e3, 120)
+fig = plot_calibrated_components(
+    cal,
+    F,
+    X_obs=data.X_obs,
+    y_obs=data.y_obs,
+    y_true=data.reality,
+    discrepancy_true=true_discrepancy,
+    names=["tip displacement", "energy"],
+    units=data.response_units,
+    input_name="tip force F [N]",
+)
+plt.show()
+
+# %%
+# The calibrated prediction (right) follows the real beam closely, with a
+# narrow band: for *prediction* the confounding is harmless, because the
+# softer model reproduces the real responses. The learned discrepancy
+# (centre) is near zero, whereas the true one grows with F: the model at
+# the effective modulus has absorbed it. To tell the spring from the
+# modulus, one needs a response that the spring affects differently, such
+# as the tip rotation or a displacement along the span (thesis section 6.3,
+# sensor design).

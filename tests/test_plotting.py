@@ -1,0 +1,578 @@
+"""Tests of skmba.plotting (headless, Agg backend)."""
+
+import subprocess
+import sys
+import warnings
+from itertools import combinations
+from types import SimpleNamespace
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import matplotlib.pyplot as plt
+import numpy as np
+import pytest
+from matplotlib.axes import Axes
+from matplotlib.collections import PathCollection, QuadMesh
+from matplotlib.figure import Figure
+from scipy import stats
+from sklearn.exceptions import NotFittedError
+
+from skmba import ModularBayesCalibrator, MultiResponseGP
+from skmba.datasets import make_cantilever
+from skmba.plotting import (
+    plot_calibrated_components,
+    plot_convergence,
+    plot_criterion_by_size,
+    plot_criterion_vs_bias,
+    plot_gp_prediction,
+    plot_posterior,
+    plot_traces,
+)
+
+
+@pytest.fixture(autouse=True)
+def close_figures():
+    yield
+    plt.close("all")
+
+
+def fit_calibrator(data, **params):
+    cal = ModularBayesCalibrator(
+        prior=data.prior, n_restarts_optimizer=0, random_state=0, **params
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return cal.fit(
+            data.X_obs,
+            data.y_obs,
+            X_sim=data.X_sim,
+            theta_sim=data.theta_sim,
+            y_sim=data.y_sim,
+        )
+
+
+@pytest.fixture(scope="module")
+def data():
+    return make_cantilever(40, 15, random_state=2)
+
+
+@pytest.fixture(scope="module")
+def calibrator(data):
+    """One parameter: quadrature posterior, no chains."""
+    return fit_calibrator(data, n_samples=1000)
+
+
+@pytest.fixture(scope="module")
+def mcmc_calibrator():
+    data = make_cantilever(60, 20, parameters=("E", "I"), random_state=0)
+    return fit_calibrator(data, n_chains=2, n_samples=300, burn_in=200)
+
+
+@pytest.fixture(scope="module")
+def gp(data):
+    rng = np.random.default_rng(0)
+    y = data.y_obs + rng.normal(scale=[0.01, 50.0], size=data.y_obs.shape)
+    return MultiResponseGP(noise=True).fit(data.X_obs, y), y
+
+
+def band_limits(band, x):
+    """Lower and upper edge of a fill_between band at the abscissae ``x``."""
+    vertices = band.get_paths()[0].vertices
+    lower, upper = [], []
+    for value in x:
+        at = vertices[np.isclose(vertices[:, 0], value), 1]
+        lower.append(at.min())
+        upper.append(at.max())
+    return np.array(lower), np.array(upper)
+
+
+def legend_texts(ax):
+    return [t.get_text() for t in ax.get_legend().get_texts()]
+
+
+# ----------------------------------------------------------------- import
+
+
+def test_import_skmba_does_not_import_matplotlib():
+    code = "import sys, skmba; print('matplotlib' in sys.modules)"
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True
+    )
+    assert out.stdout.strip() == "False"
+
+
+def test_missing_matplotlib_says_how_to_install(monkeypatch):
+    monkeypatch.setitem(sys.modules, "matplotlib.pyplot", None)
+    with pytest.raises(ImportError, match=r"pip install skmba\[plot\]"):
+        plot_traces(np.zeros((2, 10, 1)))
+
+
+# ------------------------------------------------------- GP predictions
+
+
+def test_gp_prediction_1d_bands_are_mean_pm_196_std(gp, data):
+    model, y = gp
+    X = np.linspace(1e3, 1e4, 40)[::-1]  # any order
+    fig = plot_gp_prediction(
+        model,
+        X,
+        X_train=data.X_obs,
+        y_train=y,
+        names=data.response_names,
+        units=data.response_units,
+        input_names=["force [N]"],
+    )
+    assert isinstance(fig, Figure)
+    assert len(fig.axes) == 2
+    mean, std = model.predict(X[:, None], return_std=True)
+    for k, ax in enumerate(fig.axes):
+        assert len(ax.collections) == 1  # the band
+        assert len(ax.lines) == 2  # mean and training data
+        lower, upper = band_limits(ax.collections[0], X)
+        np.testing.assert_allclose(lower, mean[:, k] - 1.96 * std[:, k], rtol=1e-10)
+        np.testing.assert_allclose(upper, mean[:, k] + 1.96 * std[:, k], rtol=1e-10)
+        line = ax.lines[0]
+        np.testing.assert_allclose(line.get_xdata(), np.sort(X))
+        np.testing.assert_allclose(line.get_ydata(), mean[::-1, k])
+        np.testing.assert_allclose(ax.lines[1].get_ydata(), y[:, k])
+        assert legend_texts(ax) == ["95 % band", "mean", "training data"]
+    assert fig.axes[0].get_xlabel() == ""  # shared x axis: bottom label only
+    assert fig.axes[1].get_xlabel() == "force [N]"
+    assert fig.axes[0].get_ylabel() == "tip_displacement [mm]"
+    assert fig.axes[1].get_ylabel() == "energy [N*mm]"
+
+
+def test_gp_prediction_one_response_and_noise(gp):
+    model, _ = gp
+    X = np.linspace(1e3, 1e4, 25)
+    ax = plot_gp_prediction(model, X, response=1, include_noise=True)
+    assert isinstance(ax, Axes)
+    assert ax.get_ylabel() == "y1"
+    _, std = model.predict(X[:, None], return_std=True)
+    total = np.sqrt(std[:, 1] ** 2 + model.noise_[1])
+    lower, upper = band_limits(ax.collections[0], X)
+    np.testing.assert_allclose(upper - lower, 2 * 1.96 * total, rtol=1e-10)
+    assert legend_texts(ax)[0] == "95 % band, new measurement"
+    # by name, into a given Axes, with training inputs as ticks
+    _, given = plt.subplots()
+    out = plot_gp_prediction(
+        model, X, response="b", names=["a", "b"], X_train=X[::5], ax=given
+    )
+    assert out is given
+    assert legend_texts(given) == ["95 % band", "mean", "training inputs"]
+
+
+def test_gp_prediction_errors(gp):
+    model, _ = gp
+    X = np.linspace(1e3, 1e4, 5)
+    with pytest.raises(TypeError, match="predict"):
+        plot_gp_prediction(object(), X)
+    with pytest.raises(ValueError, match="one or two inputs"):
+        plot_gp_prediction(model, np.zeros((4, 3)))
+    with pytest.raises(ValueError, match="response"):
+        plot_gp_prediction(model, X, response=2)
+    with pytest.raises(ValueError, match="not one of"):
+        plot_gp_prediction(model, X, response="energy")
+    with pytest.raises(ValueError, match="names has 1"):
+        plot_gp_prediction(model, X, names=["only one"])
+    with pytest.raises(ValueError, match="y_train needs X_train"):
+        plot_gp_prediction(model, X, y_train=np.zeros((3, 2)))
+    noise_free = MultiResponseGP().fit(X[:, None], np.sin(X / 1e3))
+    with pytest.raises(ValueError, match="noise"):
+        plot_gp_prediction(noise_free, X, include_noise=True)
+
+
+def test_gp_prediction_2d_contours():
+    rng = np.random.default_rng(0)
+    X = rng.uniform(size=(25, 2))
+    y = np.column_stack([np.sin(3 * X[:, 0]) + X[:, 1], X[:, 0] * X[:, 1]])
+    model = MultiResponseGP().fit(X, y)
+    grid = np.array(np.meshgrid(*[np.linspace(0, 1, 15)] * 2)).reshape(2, -1).T
+    fig = plot_gp_prediction(model, grid, X_train=X, names=["a", "b"], units=["mm", ""])
+    # 2 responses x (mean, half-width) panels, each with its colorbar
+    panels = [ax for ax in fig.axes if ax.get_title()]
+    assert [ax.get_title() for ax in panels] == [
+        "a: mean",
+        "a: 95 % half-width",
+        "b: mean",
+        "b: 95 % half-width",
+    ]
+    assert len(fig.axes) == 8
+    for ax in panels:
+        assert ax.get_xlabel() == "x0" and ax.get_ylabel() == "x1"
+        assert legend_texts(ax) == ["training inputs"]
+        np.testing.assert_allclose(ax.lines[0].get_xdata(), X[:, 0])
+    colorbars = [ax for ax in fig.axes if ax.get_label() == "<colorbar>"]
+    assert len(colorbars) == 4
+    assert colorbars[0].get_ylabel() == "a [mm]"
+    assert colorbars[3].get_ylabel() == "b"
+    # the contour levels span the mean and the half-width 1.96 std
+    mean, std = model.predict(grid, return_std=True)
+    for panel, values in ((panels[0], mean[:, 0]), (panels[3], 1.96 * std[:, 1])):
+        levels = panel.collections[0].levels
+        assert levels[0] <= values.min() and levels[-1] >= values.max()
+        assert levels[-1] - levels[0] < 2 * np.ptp(values)
+
+
+# ------------------------------------------------ calibrated components
+
+
+def test_calibrated_components(calibrator, data):
+    X = np.linspace(1e3, 1e4, 30)
+
+    def true_discrepancy(X):
+        theta = np.broadcast_to(data.theta_true, (len(X), 1))
+        return data.reality(X) - data.simulator(X, theta)
+
+    fig = plot_calibrated_components(
+        calibrator,
+        X,
+        X_obs=data.X_obs,
+        y_obs=data.y_obs,
+        y_true=data.reality,
+        discrepancy_true=true_discrepancy,
+        names=data.response_names,
+        units=data.response_units,
+        input_name="force [N]",
+    )
+    assert isinstance(fig, Figure)
+    axes = np.array(fig.axes).reshape(2, 3)
+    assert [ax.get_title() for ax in axes[0]] == [
+        "model $y^m(x, \\theta)$",
+        "discrepancy $\\delta(x)$",
+        "observation $y^m + \\delta + \\varepsilon$",
+    ]
+    assert legend_texts(axes[0, 0]) == ["95 % band", "mean", "observations"]
+    assert legend_texts(axes[0, 1]) == [
+        "95 % band",
+        "mean",
+        "true discrepancy",
+        "observations - model mean",
+    ]
+    assert legend_texts(axes[0, 2]) == [
+        "95 % band",
+        "mean",
+        "observations",
+        "true process (no noise)",
+    ]
+    assert axes[1, 0].get_ylabel() == "energy [N*mm]"
+    assert axes[1, 2].get_xlabel() == "force [N]"
+    methods = ("predict_model", "predict_discrepancy", "predict")
+    for j, method in enumerate(methods):
+        mean, std = getattr(calibrator, method)(X[:, None], return_std=True)
+        for k in range(2):
+            lower, upper = band_limits(axes[k, j].collections[0], X)
+            np.testing.assert_allclose(lower, mean[:, k] - 1.96 * std[:, k])
+            np.testing.assert_allclose(upper, mean[:, k] + 1.96 * std[:, k])
+    reality = data.reality(X[:, None])
+    np.testing.assert_allclose(axes[0, 2].lines[-1].get_ydata(), reality[:, 0])
+    residual = data.y_obs - calibrator.predict_model(data.X_obs)
+    np.testing.assert_allclose(axes[1, 1].lines[-1].get_ydata(), residual[:, 1])
+
+
+def test_calibrated_components_errors(calibrator, gp, data):
+    X = np.linspace(1e3, 1e4, 5)
+    with pytest.raises(TypeError, match="ModularBayesCalibrator"):
+        plot_calibrated_components(gp[0], X)
+    with pytest.raises(ValueError, match="one design variable"):
+        plot_calibrated_components(calibrator, np.zeros((5, 2)))
+    with pytest.raises(ValueError, match="together"):
+        plot_calibrated_components(calibrator, X, X_obs=data.X_obs)
+    with pytest.raises(ValueError, match="y_true has shape"):
+        plot_calibrated_components(calibrator, X, y_true=np.zeros((4, 2)))
+    with pytest.raises(NotFittedError):
+        plot_calibrated_components(ModularBayesCalibrator(), X)
+
+
+# ------------------------------------------------------------ posterior
+
+
+def test_posterior_from_calibrator(calibrator, data):
+    fig = plot_posterior(calibrator, true_value=data.theta_true, names=["E"])
+    assert isinstance(fig, Figure) and len(fig.axes) == 1
+    ax = fig.axes[0]
+    assert legend_texts(ax) == [
+        "posterior",
+        "95 % credible interval",
+        "prior",
+        "true",
+    ]
+    assert ax.get_xlabel() == "E" and ax.get_ylabel() == "density"
+    heights = [p.get_height() for p in ax.patches]
+    assert len(heights) == 40
+    widths = np.array([p.get_width() for p in ax.patches])
+    assert np.sum(np.array(heights) * widths) == pytest.approx(1.0)
+    interval = np.quantile(calibrator.theta_samples_[:, 0], [0.025, 0.975])
+    vertical = [line.get_xdata()[0] for line in ax.lines if line.get_linestyle() == ":"]
+    np.testing.assert_allclose(vertical[:2], interval)
+    mean = calibrator.theta_samples_.mean()
+    assert ax.get_title().startswith(f"E: mean {mean:.5g}")
+    # The posterior is far narrower than the uniform prior: "auto" zooms on
+    # it (and the truth), "prior" shows the prior's range.
+    lo, hi = ax.get_xlim()
+    assert lo > 30e3 and hi < 90e3 and hi > data.theta_true[0]
+    fig = plot_posterior(calibrator, limits="prior")
+    lo, hi = fig.axes[0].get_xlim()
+    assert lo < 21e3 and hi > 99e3
+    prior_line = [line for line in fig.axes[0].lines if line.get_label() == "prior"]
+    np.testing.assert_allclose(prior_line[0].get_ydata()[200], 1 / 80e3)
+
+
+def test_posterior_pairs():
+    rng = np.random.default_rng(0)
+    cov = [[4e7, -2e12], [-2e12, 1.5e17]]
+    draws = rng.multivariate_normal([70e3, 6.8e8], cov, size=5000)
+    prior = [stats.uniform(20e3, 80e3), stats.uniform(2.25e8, 9e8)]
+    fig = plot_posterior(
+        draws,
+        prior=prior,
+        true_value=[70e3, 6.75e8],
+        names=["E", "I"],
+        units=["MPa", "mm4"],
+    )
+    axes = np.array(fig.axes).reshape(2, 2)
+    assert axes[1, 0].get_xlabel() == "E [MPa]"
+    assert axes[1, 0].get_ylabel() == "I [mm4]"
+    assert axes[1, 1].get_xlabel() == "I [mm4]"
+    scatter = axes[1, 0].lines[0]
+    assert len(scatter.get_xdata()) <= 2000  # thinned
+    np.testing.assert_allclose(scatter.get_xdata(), draws[::3, 0])
+    true_marker = axes[1, 0].lines[-1]
+    assert true_marker.get_label() == "true"
+    np.testing.assert_allclose(true_marker.get_xydata(), [[70e3, 6.75e8]])
+    assert not axes[0, 1].axison
+    rho = np.corrcoef(draws.T)[0, 1]
+    assert axes[0, 1].texts[0].get_text() == f"corr(E, I)\n= {rho:.2f}"
+    assert legend_texts(axes[0, 1]) == [
+        "posterior",
+        "95 % credible interval",
+        "prior",
+        "true",
+    ]
+    for j, dist in enumerate(prior):  # prior's range shown: posterior is wide
+        lo, hi = axes[j, j].get_xlim()
+        assert lo < dist.ppf(0.005) and hi > dist.ppf(0.995)
+    # uniform prior density of E on the diagonal
+    prior_line = next(line for line in axes[0, 0].lines if line.get_label() == "prior")
+    inside = (prior_line.get_xdata() > 21e3) & (prior_line.get_xdata() < 99e3)
+    np.testing.assert_allclose(prior_line.get_ydata()[inside], 1 / 80e3)
+
+
+def test_posterior_gaussian_and_generic_priors():
+    rng = np.random.default_rng(1)
+    draws = rng.normal([65e3, 7e8], [5e3, 1e8], size=(3000, 2))
+    mvn = stats.multivariate_normal([53e3, 4.72e8], np.diag([1e8, 4.5e15]))
+    fig = plot_posterior(draws, prior=mvn, kind="hist2d")
+    axes = np.array(fig.axes).reshape(2, 2)
+    assert any(isinstance(c, QuadMesh) for c in axes[1, 0].collections)
+    line = next(line for line in axes[1, 1].lines if line.get_label() == "prior")
+    expected = stats.norm(4.72e8, np.sqrt(4.5e15)).pdf(line.get_xdata())
+    np.testing.assert_allclose(line.get_ydata(), expected)
+    assert axes[0, 0].get_title().startswith("θ0: mean")
+    # a prior known only through logpdf/rvs: its marginals are histograms
+    generic = stats.multivariate_t([65e3, 7e8], np.diag([4e7, 1e16]), df=5)
+    fig = plot_posterior(draws, prior=generic)
+    labels = [p.get_label() for p in fig.axes[0].patches]
+    assert "prior (draws)" in labels
+
+
+def test_posterior_errors(calibrator):
+    draws = np.zeros((10, 2))
+    with pytest.raises(TypeError, match="array of posterior draws"):
+        plot_posterior(["a", "b"])
+    with pytest.raises(NotFittedError):
+        plot_posterior(ModularBayesCalibrator())
+    with pytest.raises(ValueError, match="true_value must have 2"):
+        plot_posterior(draws, true_value=[1.0])
+    with pytest.raises(ValueError, match="kind"):
+        plot_posterior(draws, kind="kde")
+    with pytest.raises(ValueError, match="limits"):
+        plot_posterior(draws, limits="all")
+    with pytest.raises(ValueError, match="calibration parameters"):
+        plot_posterior(draws, prior=[stats.uniform(0, 1)])
+    with pytest.raises(ValueError, match="ax must hold 4"):
+        plot_posterior(draws + np.arange(2), ax=plt.subplots()[1])
+
+
+# ---------------------------------------------------------------- traces
+
+
+def test_traces_from_array():
+    rng = np.random.default_rng(0)
+    chains = rng.normal([70e3, 7e8], [5e3, 1e8], size=(3, 200, 2))
+    fig = plot_traces(
+        chains, names=["E", "I"], units=["MPa", "mm4"], true_value=[70e3, 7e8]
+    )
+    assert isinstance(fig, Figure) and len(fig.axes) == 2
+    for p, ax in enumerate(fig.axes):
+        assert len(ax.lines) == 4  # three chains and the true value
+        for c in range(3):
+            np.testing.assert_allclose(ax.lines[c].get_ydata(), chains[c, :, p])
+        assert "split R-hat = 1.0" in ax.get_title()
+    assert fig.axes[0].get_ylabel() == "E [MPa]"
+    assert fig.axes[1].get_xlabel() == "draw (after burn-in)"
+    assert legend_texts(fig.axes[0]) == ["chain 1", "chain 2", "chain 3", "true"]
+    # a stuck chain shows in R-hat
+    chains[0] += 3 * np.array([5e3, 1e8])
+    fig = plot_traces(chains)
+    rhat = float(fig.axes[0].get_title().split("= ")[1])
+    assert rhat > 1.1
+
+
+def test_traces_from_calibrators(calibrator, mcmc_calibrator):
+    with pytest.raises(ValueError, match="sampler='mcmc'"):
+        plot_traces(calibrator)
+    if hasattr(mcmc_calibrator, "theta_chains_"):
+        fig = plot_traces(mcmc_calibrator, names=["E", "I"])
+        chains = mcmc_calibrator.theta_chains_
+        assert len(fig.axes) == 2
+        assert len(fig.axes[0].lines) == chains.shape[0]
+        np.testing.assert_allclose(fig.axes[1].lines[0].get_ydata(), chains[0, :, 1])
+    else:  # a calibrator without chains asks for the array form
+        with pytest.raises(ValueError, match=r"\(n_chains, n_draws, r\)"):
+            plot_traces(mcmc_calibrator)
+
+
+def test_traces_errors():
+    with pytest.raises(ValueError, match=r"\(n_chains, n_draws, r\)"):
+        plot_traces(np.zeros((100, 2)))
+    with pytest.raises(TypeError, match="plot_traces needs"):
+        plot_traces([["a"]])
+    with pytest.raises(NotFittedError):
+        plot_traces(ModularBayesCalibrator())
+    with pytest.raises(ValueError, match="true_value"):
+        plot_traces(np.zeros((2, 10, 2)), true_value=[1.0, 2.0, 3.0])
+
+
+# --------------------------------------------------------- sensor design
+
+
+@pytest.fixture
+def designer():
+    """Seven responses, all 127 subsets; criterion falls with size."""
+    rng = np.random.default_rng(0)
+    subsets = [s for k in range(1, 8) for s in combinations(range(7), k)]
+    scores = np.array([1.0 / (len(s) + 0.2 * sum(s)) for s in subsets])
+    scores = scores * (1 + 0.01 * rng.random(len(subsets)))
+    n_mc = 50
+    replicate = 1 + 0.5 * rng.standard_normal((n_mc, len(subsets)))
+    running = scores * np.cumsum(replicate, axis=0) / np.arange(1, n_mc + 1)[:, None]
+    running[-1] = scores
+    return SimpleNamespace(
+        subsets_=subsets,
+        scores_=scores,
+        preposterior_cov_=scores[:, None, None] * np.ones((1, 1, 1)),
+        convergence_=running,
+        n_responses_=7,
+        criterion="trace",
+    )
+
+
+def test_criterion_by_size(designer):
+    names = list("ABCDEFG")
+    ax = plot_criterion_by_size(designer, names=names)
+    assert isinstance(ax, Axes)
+    maximum, minimum = ax.lines
+    sizes = np.array([len(s) for s in designer.subsets_])
+    np.testing.assert_array_equal(minimum.get_xdata(), np.arange(1, 8))
+    for k, size in enumerate(range(1, 8)):
+        members = designer.scores_[sizes == size]
+        assert minimum.get_ydata()[k] == members.min()
+        assert maximum.get_ydata()[k] == members.max()
+    assert minimum.get_linestyle() == "--" and minimum.get_marker() == "o"
+    assert maximum.get_linestyle() == "-" and maximum.get_marker() == "x"
+    texts = [t.get_text() for t in ax.texts]
+    assert texts[0] == "G"  # 1 / (1 + 0.2 * 6): the best single response
+    assert texts[-1] == "A, B, C, D, E, F, G"
+    assert len(texts) == 7
+    assert legend_texts(ax) == ["maximum", "minimum (best)"]
+    assert ax.get_xlabel() == "number of sensors (responses)"
+    assert ax.get_ylabel() == "preposterior criterion (trace), lower is better"
+    # default names
+    ax = plot_criterion_by_size(designer)
+    assert ax.texts[0].get_text() == "y6"
+
+
+def test_criterion_vs_bias(designer):
+    rng = np.random.default_rng(0)
+    bias = 0.1 * designer.scores_ + 0.01 * rng.random(len(designer.scores_))
+    ax = plot_criterion_vs_bias(
+        designer.scores_, bias, subsets=designer.subsets_, names=list("ABCDEFG")
+    )
+    assert isinstance(ax, Axes)
+    groups = [c for c in ax.collections if isinstance(c, PathCollection)]
+    assert len(groups) == 7  # one colour per number of sensors
+    assert sum(len(g.get_offsets()) for g in groups) == len(bias)
+    np.testing.assert_allclose(
+        groups[0].get_offsets(), np.c_[bias, designer.scores_][:7]
+    )
+    assert legend_texts(ax) == ["1 sensor"] + [f"{k} sensors" for k in range(2, 8)]
+    assert ax.get_xlabel() == "identification bias"
+    assert not ax.texts
+    # from the designer itself, annotated
+    ax = plot_criterion_vs_bias(designer, bias, names=list("ABCDEFG"), annotate=True)
+    assert len(ax.texts) == len(bias)
+    assert ax.texts[7].get_text() == "AB"
+    # without subsets: one group
+    ax = plot_criterion_vs_bias([1.0, 2.0], [0.1, 0.2])
+    assert legend_texts(ax) == ["configurations"]
+
+
+def test_criterion_vs_bias_errors(designer):
+    with pytest.raises(ValueError, match="one of each"):
+        plot_criterion_vs_bias([1.0, 2.0], [0.1])
+    with pytest.raises(ValueError, match="needs the subsets"):
+        plot_criterion_vs_bias([1.0, 2.0], [0.1, 0.2], annotate=True)
+    with pytest.raises(ValueError, match="subsets has 1"):
+        plot_criterion_vs_bias([1.0, 2.0], [0.1, 0.2], subsets=[(0,)])
+    with pytest.raises(TypeError, match="arrays of numbers"):
+        plot_criterion_vs_bias(["x"], [0.1])
+
+
+def test_convergence(designer):
+    names = list("ABCDEFG")
+    ax = plot_convergence(designer, names=names)
+    assert isinstance(ax, Axes)
+    labels = [line.get_label() for line in ax.get_lines()]
+    # best of each size, 5 sizes spread over 1..7 (rounding half to even)
+    sizes = [label.count(",") + 1 for label in labels]
+    assert sizes == [1, 3, 4, 5, 7]
+    assert labels[0] == "G"
+    index = designer.subsets_.index((6,))
+    np.testing.assert_allclose(
+        ax.get_lines()[0].get_ydata(), designer.convergence_[:, index]
+    )
+    np.testing.assert_array_equal(ax.get_lines()[0].get_xdata(), np.arange(1, 51))
+    assert ax.get_xlabel() == "Monte Carlo replicates"
+    assert ax.get_ylabel() == "running preposterior criterion (trace)"
+    assert ax.get_legend().get_title().get_text() == "responses"
+    # chosen subsets, in any order of their responses
+    ax = plot_convergence(designer, subsets=[(1, 0), (2,)], names=names)
+    assert [line.get_label() for line in ax.get_lines()] == ["A, B", "C"]
+    index = designer.subsets_.index((0, 1))
+    np.testing.assert_allclose(
+        ax.get_lines()[0].get_ydata(), designer.convergence_[:, index]
+    )
+
+
+def test_sensor_plot_errors(designer):
+    with pytest.raises(ValueError, match="not evaluated"):
+        plot_convergence(designer, subsets=[(0, 9)])
+    with pytest.raises(TypeError, match="tuples of response indices"):
+        plot_convergence(designer, subsets=[0, 1])
+    with pytest.raises(TypeError, match="fitted PreposteriorDesigner"):
+        plot_criterion_by_size(SimpleNamespace(scores_=[1.0]))
+
+    class Unfitted:
+        def fit(self, X, y):
+            return self
+
+    with pytest.raises(NotFittedError, match="not fitted"):
+        plot_convergence(Unfitted())
+    with pytest.raises(ValueError, match="names has 2"):
+        plot_criterion_by_size(designer, names=["A", "B"])
+    bad = SimpleNamespace(**{**vars(designer), "convergence_": np.zeros((5, 3))})
+    with pytest.raises(ValueError, match="convergence_ has shape"):
+        plot_convergence(bad)
