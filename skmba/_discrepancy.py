@@ -164,15 +164,27 @@ class DiscrepancyFit:
         relative = 0.1 if self.fixed_noise is None else self.fixed_noise
         return self.pack(self.kernel.theta, relative * self.scale**2, L0)
 
-    def optimize(self, *, optimizer="fmin_l_bfgs_b", n_restarts=0, random_state=None):
+    def optimize(
+        self,
+        *,
+        optimizer="fmin_l_bfgs_b",
+        n_restarts=0,
+        random_state=None,
+        start=None,
+        max_iter=None,
+    ):
         """Maximise the likelihood; returns ``self`` with the fitted values.
 
         Sets ``kernel_``, ``sigma2``, ``noise``, ``beta`` (p, q) and
-        ``log_likelihood``.
+        ``log_likelihood``. ``start`` (packed parameters, see :meth:`pack`)
+        replaces the default starting point of :meth:`start`; it is clipped
+        to the bounds. ``max_iter`` bounds the L-BFGS-B iterations of each
+        start (None: scipy's default); reaching it is not warned about, the
+        caller asked for it.
         """
         rng = check_random_state(random_state)
         bounds = self.bounds()
-        x0 = self.start()
+        x0 = self.start() if start is None else np.clip(start, *bounds.T)
         starts = [x0]
         for _ in range(n_restarts):
             s = x0.copy()
@@ -206,9 +218,15 @@ class DiscrepancyFit:
         best = None
         for s in starts:
             res = optimize.minimize(
-                self._objective, s, jac=True, method="L-BFGS-B", bounds=bounds
+                self._objective,
+                s,
+                jac=True,
+                method="L-BFGS-B",
+                bounds=bounds,
+                options={} if max_iter is None else {"maxiter": max_iter},
             )
-            if not res.success and np.isfinite(res.fun):
+            capped = max_iter is not None and res.nit >= max_iter
+            if not res.success and np.isfinite(res.fun) and not capped:
                 warnings.warn(
                     f"The discrepancy likelihood did not fully converge "
                     f"({res.message}).",

@@ -36,12 +36,43 @@ Examples
 import numpy as np
 from joblib import Parallel, delayed
 from scipy import linalg
+from threadpoolctl import threadpool_limits
 
 from skmba._regression import regression_basis
 
+# Bytes of the (k, n, n) correlation temporaries of one block of nodes: the
+# number of nodes per block is lowered so that they stay below this.
+BLOCK_BYTES = 64 * 2**20
 
-def _node_block(state, kernel, regression, X_m, X_e, nodes):
-    """Emulator means (k, n, q) and correlation factors (k, n, n) at nodes."""
+
+def nodes_per_block(n, block=64):
+    """Number of integration nodes per block for ``n`` field inputs.
+
+    At most ``block``, and few enough that a block's three (k, n, n)
+    temporaries fit in :data:`BLOCK_BYTES`. It depends on the problem only
+    (never on ``n_jobs``), so the blocks, hence the bits, are the same for
+    any ``n_jobs``.
+
+    Examples
+    --------
+    >>> nodes_per_block(20), nodes_per_block(1000)
+    (64, 2)
+    """
+    return int(max(1, min(block, BLOCK_BYTES // (3 * 8 * max(n, 1) ** 2))))
+
+
+def _node_block(state, kernel, regression, X_m, X_e, nodes, weights):
+    """Emulator means (k, n, q) at the nodes and ``sum_k w_k c_k`` (n, n).
+
+    BLAS is held to one thread, so that a block gives the same bits in any
+    joblib worker (process or thread) as in the calling process.
+    """
+    with threadpool_limits(limits=1, user_api="blas"):
+        means, corr = _node_block_body(state, kernel, regression, X_m, X_e, nodes)
+        return means, np.tensordot(weights, corr, axes=1)
+
+
+def _node_block_body(state, kernel, regression, X_m, X_e, nodes):
     n = len(X_e)
     k = len(nodes)
     points = np.hstack([np.tile(X_e, (k, 1)), np.repeat(nodes, n, axis=0)])
@@ -104,9 +135,15 @@ def integrate_emulator(
     nodes : ndarray of shape (k, r)
     weights : ndarray of shape (k,)
     n_jobs : int, default=None
-        Blocks of nodes run in parallel through joblib.
+        Blocks of nodes run in parallel through joblib. The blocks are fixed
+        by ``block`` and ``n``, not by ``n_jobs``, and each is computed with
+        one BLAS thread: the result is bit-identical for any ``n_jobs`` and
+        backend.
     block : int, default=64
-        Nodes per block.
+        Largest number of nodes per block (lowered for many field inputs,
+        see :func:`nodes_per_block`). Each block returns its weighted sum of
+        correlations, so the memory is that of the blocks in flight, not of
+        all nodes.
 
     Returns
     -------
@@ -119,13 +156,23 @@ def integrate_emulator(
         The covariance of the emulator mean over the prior (law of total
         variance), ``vec`` ordering response-slowest.
     """
+    block = nodes_per_block(len(X_e), block)
     starts = range(0, len(nodes), block)
     parts = Parallel(n_jobs=n_jobs)(
-        delayed(_node_block)(state, kernel, regression, X_m, X_e, nodes[s : s + block])
+        delayed(_node_block)(
+            state,
+            kernel,
+            regression,
+            X_m,
+            X_e,
+            nodes[s : s + block],
+            weights[s : s + block],
+        )
         for s in starts
     )
     means = np.concatenate([p[0] for p in parts])
-    corr = np.concatenate([p[1] for p in parts])
     mean, spread = weighted_moments(means, weights)
-    cond_corr = np.tensordot(weights, corr, axes=1)
+    cond_corr = parts[0][1]
+    for part in parts[1:]:  # in block order, whatever finished first
+        cond_corr = cond_corr + part[1]
     return mean, 0.5 * (cond_corr + cond_corr.T), 0.5 * (spread + spread.T)

@@ -46,6 +46,11 @@ from skmba._linalg import (
 
 LOG_2PI = np.log(2.0 * np.pi)
 
+#: Name given to the correlation matrix in factorisation errors
+#: (``FactorizationError.what``): only its failures are repaired by a larger
+#: nugget.
+R_WHAT = "correlation matrix R"
+
 R_REMEDY = (
     "Increase the nugget `alpha` (e.g. alpha=1e-8 or larger), remove "
     "duplicated input points, or use a rougher kernel (Exp, Matern, "
@@ -67,7 +72,9 @@ def _cholesky_inverse(C):
     """
     inv, info = lapack.dpotri(C, lower=1)
     if info != 0:
-        raise FactorizationError(f"LAPACK dpotri failed (info={info}). {R_REMEDY}")
+        raise FactorizationError(
+            f"LAPACK dpotri failed (info={info}). {R_REMEDY}", what=R_WHAT
+        )
     return np.tril(inv) + np.tril(inv, -1).T
 
 
@@ -103,7 +110,7 @@ class NoiseFreeLikelihood:
 
     def __init__(self, R, H, Y, dR=None, ridge=0.0):
         N, q = Y.shape
-        self.C = cholesky(R, what="correlation matrix R", remedy=R_REMEDY)
+        self.C = cholesky(R, what=R_WHAT, remedy=R_REMEDY)
         self.gls = whitened_gls(self.C, H, Y)
         resid = self.gls.residual
         S = resid.T @ resid
@@ -227,7 +234,7 @@ class NoisyLikelihood:
 
     def __init__(self, R, H, Y, sigma2, lam, dR=None, eig=None):
         N, q = Y.shape
-        s, U = symmetric_eigh(R, what="correlation matrix R") if eig is None else eig
+        s, U = symmetric_eigh(R, what=R_WHAT) if eig is None else eig
         self.sigma2 = sigma2
         ke = self.ke = KroneckerEigen(s, U, self.sigma2, lam)
         # GLS decouples per eigen-column i in the reparametrisation

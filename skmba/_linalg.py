@@ -13,6 +13,8 @@ solve a system anywhere in the package.
   diagonal) from the eigendecompositions of ``R`` (N x N) and of
   ``Lambda^-1/2 Sigma2 Lambda^-1/2`` (q x q), so that solves, determinants and
   gradients cost O(N^3 + q^3) instead of O((Nq)^3).
+* :func:`check_memory` refuses, before anything is allocated, a planned
+  allocation larger than the memory the machine has available.
 
 Examples
 --------
@@ -25,10 +27,13 @@ Examples
 array([[2.]])
 """
 
+import os
 from dataclasses import dataclass
 
 import numpy as np
 from scipy import linalg
+
+_GIB = float(2**30)
 
 
 class FactorizationError(np.linalg.LinAlgError):
@@ -37,15 +42,28 @@ class FactorizationError(np.linalg.LinAlgError):
     Subclass of :class:`numpy.linalg.LinAlgError` (itself a ``ValueError``);
     the message says which matrix failed and what to change.
 
+    Parameters
+    ----------
+    message : str
+    what : str, optional
+        Name of the matrix that failed (as passed to :func:`cholesky`), so
+        that a caller can tell, e.g., a singular correlation matrix (which a
+        larger nugget repairs) from a singular response covariance (which it
+        does not).
+
     Examples
     --------
     >>> import numpy as np
     >>> try:
     ...     cholesky(np.ones((2, 2)), what="R", remedy="increase alpha")
     ... except FactorizationError as exc:
-    ...     print("increase alpha" in str(exc))
-    True
+    ...     print("increase alpha" in str(exc), exc.what)
+    True R
     """
+
+    def __init__(self, message="", *, what=None):
+        super().__init__(message)
+        self.what = what
 
 
 def cholesky(A, *, what="matrix", remedy=None):
@@ -84,7 +102,7 @@ def cholesky(A, *, what="matrix", remedy=None):
         message = f"The {what} is not positive definite ({exc})."
         if remedy:
             message += f" {remedy}"
-        raise FactorizationError(message) from exc
+        raise FactorizationError(message, what=what) from exc
 
 
 def log_det_from_cholesky(C):
@@ -97,6 +115,136 @@ def log_det_from_cholesky(C):
     3.583519
     """
     return 2.0 * np.sum(np.log(np.diag(C)))
+
+
+def smallest_pivot(C):
+    """Smallest squared diagonal entry of a Cholesky factor ``C``.
+
+    A cheap diagnostic of near-singularity: for ``A = C C'``,
+    ``min_i C_ii^2`` is the smallest conditional variance of one entry given
+    the preceding ones, at least the smallest eigenvalue of ``A`` and usually
+    of its order. For a correlation matrix with nugget ``alpha`` it is close
+    to ``alpha`` when only the nugget keeps the matrix positive definite.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> R = np.array([[1.0, 0.999], [0.999, 1.0]])
+    >>> round(float(smallest_pivot(cholesky(R))), 6)
+    0.001999
+    """
+    return float(np.min(np.diag(C)) ** 2) if C.size else 1.0
+
+
+def _meminfo_available(path="/proc/meminfo"):
+    """``MemAvailable`` of ``/proc/meminfo`` in bytes (Linux), else None."""
+    try:
+        with open(path) as handle:
+            for line in handle:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        return None
+    return None
+
+
+def _cgroup_available(directory="/sys/fs/cgroup"):
+    """Memory left under a cgroup v2 limit (containers) in bytes, else None."""
+    try:
+        with open(os.path.join(directory, "memory.max")) as handle:
+            limit = handle.read().strip()
+        if limit == "max":
+            return None
+        with open(os.path.join(directory, "memory.current")) as handle:
+            current = int(handle.read().strip())
+        return max(int(limit) - current, 0)
+    except (OSError, ValueError):
+        return None
+
+
+def _sysconf_memory():
+    """Physical memory from ``os.sysconf`` in bytes, else None."""
+    try:
+        pages = os.sysconf("SC_PHYS_PAGES")
+        size = os.sysconf("SC_PAGE_SIZE")
+    except (AttributeError, ValueError, OSError):
+        return None
+    if pages <= 0 or size <= 0:
+        return None
+    return int(pages) * int(size)
+
+
+def _available_memory():
+    """Bytes available for new allocations, or None when unknown.
+
+    Linux: ``MemAvailable`` of ``/proc/meminfo``, lowered to what is left
+    under a cgroup v2 memory limit (containers) when there is one. Elsewhere:
+    the physical memory ``os.sysconf("SC_PHYS_PAGES") * SC_PAGE_SIZE``.
+    """
+    available = _meminfo_available()
+    if available is None:
+        return _sysconf_memory()
+    limit = _cgroup_available()
+    return available if limit is None else min(available, limit)
+
+
+def check_memory(n_bytes, what, remedy):
+    """Refuse a planned allocation larger than the available memory.
+
+    Call it *before* allocating: a large dense matrix that does not fit
+    makes the machine swap or the process killed, losing the work done so
+    far; a :class:`MemoryError` with the size and the remedy does not.
+
+    Parameters
+    ----------
+    n_bytes : int or float
+        Size of the planned allocation in bytes (e.g. ``8 * n * n`` for an
+        ``n x n`` float64 matrix; include the temporaries that are alive at
+        the same time).
+    what : str
+        What the memory is for, e.g. ``"the 20000 x 20000 correlation
+        matrix"``; it starts the error message.
+    remedy : str
+        What the user can change to need less memory.
+
+    Returns
+    -------
+    None
+
+    Raises
+    ------
+    MemoryError
+        When ``n_bytes`` exceeds the available memory. The message gives the
+        size needed and the memory available in GiB, ``what`` and ``remedy``.
+    ValueError
+        When ``n_bytes`` is negative or not finite.
+
+    Notes
+    -----
+    The available memory is ``MemAvailable`` of ``/proc/meminfo`` on Linux
+    (lowered to the room left under a cgroup v2 memory limit, as in
+    containers), otherwise the physical memory
+    ``os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")``. When
+    neither can be read, nothing is checked.
+
+    Examples
+    --------
+    >>> check_memory(8 * 100 * 100, "a 100 x 100 matrix", "Use fewer points.")
+    >>> check_memory(2**80, "a 2**38 x 2**38 matrix", "Use fewer points.")
+    Traceback (most recent call last):
+    ...
+    MemoryError: a 2**38 x 2**38 matrix needs 1.1259e+15 GiB of memory, but only ... GiB is available. Use fewer points.
+    """  # noqa: E501
+    n_bytes = float(n_bytes)
+    if not np.isfinite(n_bytes) or n_bytes < 0:
+        raise ValueError(f"n_bytes must be finite and >= 0, got {n_bytes!r}.")
+    available = _available_memory()
+    if available is None or n_bytes <= available:
+        return
+    raise MemoryError(
+        f"{what} needs {n_bytes / _GIB:.5g} GiB of memory, but only "
+        f"{available / _GIB:.3g} GiB is available. {remedy}"
+    )
 
 
 @dataclass
@@ -192,7 +340,7 @@ def symmetric_eigh(R, *, what="correlation matrix", rtol=1e-8):
     array([1., 3.])
     """
     if not np.all(np.isfinite(R)):
-        raise FactorizationError(f"The {what} has non-finite entries.")
+        raise FactorizationError(f"The {what} has non-finite entries.", what=what)
     s, U = linalg.eigh(R, check_finite=False)
     scale = max(abs(s[-1]), 1e-300)
     if s[0] < -rtol * scale:
@@ -200,7 +348,8 @@ def symmetric_eigh(R, *, what="correlation matrix", rtol=1e-8):
             f"The {what} is not positive semi-definite (smallest eigenvalue "
             f"{s[0]:.3g}). The kernel is not a valid correlation for these "
             "inputs: use Gauss, Exp or GeneralizedExp, which are positive "
-            "definite in any dimension."
+            "definite in any dimension.",
+            what=what,
         )
     return np.clip(s, 0.0, None), U
 

@@ -432,6 +432,52 @@ class Prior:
         cov = np.array(self._cov_value(), dtype=float)
         return cov.reshape(self.dim, self.dim)
 
+    def mass_inside(self, lower, upper):
+        """Prior probability of the box ``lower <= θ <= upper``.
+
+        Used to check that simulations cover the prior. Exact for
+        :class:`IndependentPrior` (product of marginal CDF differences) and
+        one-parameter :class:`GaussianPrior`; otherwise the fraction of 20000
+        draws with the fixed seed 0 inside the box (standard error below
+        0.004), so the result is reproducible.
+
+        Parameters
+        ----------
+        lower, upper : array-like of shape (r,)
+            Corners of the box (``-inf``/``inf`` allowed).
+
+        Returns
+        -------
+        mass : float
+            In ``[0, 1]``.
+
+        Examples
+        --------
+        >>> from scipy.stats import norm, uniform
+        >>> from skmba._priors import check_prior
+        >>> prior = check_prior([uniform(0, 2), norm(0, 1)])
+        >>> round(prior.mass_inside([1.0, 0.0], [3.0, 10.0]), 4)
+        0.25
+        """
+        lower = np.asarray(lower, dtype=float).reshape(-1)
+        upper = np.asarray(upper, dtype=float).reshape(-1)
+        if lower.shape != (self.dim,) or upper.shape != (self.dim,):
+            raise ValueError(
+                f"lower and upper must have {self.dim} values (one per "
+                f"parameter); got {lower.size} and {upper.size}."
+            )
+        if np.isnan(lower).any() or np.isnan(upper).any():
+            raise ValueError("lower and upper must not contain NaN.")
+        return float(np.clip(self._mass_inside(lower, upper), 0.0, 1.0))
+
+    def _box_draws(self):
+        return self.rvs(_N_GENERIC_DRAWS, random_state=_GENERIC_SEED)
+
+    def _mass_inside(self, lower, upper):
+        draws = self._box_draws()
+        inside = np.all((draws >= lower) & (draws <= upper), axis=1)
+        return inside.mean()
+
 
 class IndependentPrior(Prior):
     """Independent frozen univariate ``scipy.stats`` distributions.
@@ -510,6 +556,14 @@ class IndependentPrior(Prior):
 
     def _mean_value(self):
         return [d.mean() for d in self.distributions]
+
+    def _mass_inside(self, lower, upper):
+        mass = 1.0
+        for j, dist in enumerate(self.distributions):
+            if upper[j] < lower[j]:
+                return 0.0
+            mass *= float(dist.cdf(upper[j]) - dist.cdf(lower[j]))
+        return mass
 
     def _cov_value(self):
         return np.diag([d.var() for d in self.distributions])
@@ -598,6 +652,15 @@ class GaussianPrior(Prior):
 
     def _mean_value(self):
         return self._mean
+
+    def _mass_inside(self, lower, upper):
+        if self.dim == 1:
+            sd = float(np.sqrt(self._cov[0, 0]))
+            if upper[0] < lower[0]:
+                return 0.0
+            cdf = stats.norm.cdf([lower[0], upper[0]], loc=self._mean[0], scale=sd)
+            return float(cdf[1] - cdf[0])
+        return super()._mass_inside(lower, upper)
 
     def _cov_value(self):
         return self._cov
@@ -708,6 +771,9 @@ class GenericPrior(Prior):
                 f"return ({n}, {self._dim})."
             )
         return draws.reshape(n, self._dim)
+
+    def _box_draws(self):
+        return self._fixed_draws()
 
     def _fixed_draws(self):
         if self._draws is None:

@@ -34,6 +34,7 @@ True
 """
 
 import math
+import time
 import warnings
 from dataclasses import dataclass
 from numbers import Integral
@@ -41,6 +42,7 @@ from numbers import Integral
 import numpy as np
 from joblib import Parallel, delayed
 from scipy import fft, linalg, stats
+from threadpoolctl import threadpool_limits
 
 # Optimal scaling of a random-walk proposal for a Gaussian target in r
 # dimensions (Gelman, Roberts & Gilks 1996): proposal covariance
@@ -156,11 +158,14 @@ def run_chains(
 
     Parameters
     ----------
-    log_density : callable
+    log_density : callable or sequence of n_chains callables
         ``log_density(theta) -> float`` for ``theta`` an ndarray of shape
         (r,), which it must not modify, up to an additive constant. ``-inf``
         means zero density: the proposal is rejected. It must be picklable
         (``cloudpickle``) when ``n_jobs`` runs chains in other processes.
+        A sequence gives each chain its own callable (all computing the same
+        density), e.g. objects with their own caches, which then stay
+        private to a chain under a thread-based joblib backend.
     starts : array_like of shape (n_chains, r)
         Starting point of each chain; each must have a finite log-density.
         Dispersed starts make :attr:`ChainResult.rhat` meaningful.
@@ -177,7 +182,9 @@ def run_chains(
         Adapt the proposal during burn-in; ``False`` keeps ``proposal_cov``.
     n_jobs : int, default=None
         Number of chains run at the same time by :class:`joblib.Parallel`
-        (default backend, so :func:`joblib.parallel_config` applies).
+        (default backend, so :func:`joblib.parallel_config` applies). Each
+        chain holds BLAS to one thread, so that its arithmetic, hence its
+        draws, do not depend on the backend or on the number of cores.
     random_state : int, RandomState, Generator or None, default=None
         Source of the entropy of :class:`numpy.random.SeedSequence`, whose
         ``spawn(n_chains)`` children seed the chains: an int is used as is, a
@@ -185,7 +192,9 @@ def run_chains(
         fresh entropy. Results do not depend on ``n_jobs``.
     verbose : int, default=0
         Verbosity of :class:`joblib.Parallel`; from 2 on, each chain also
-        prints its adapted scale factor and acceptance rate.
+        prints (to the standard output of the process that runs it) the end
+        of its burn-in with the adapted scale factor, every quarter of its
+        draws and its acceptance rate.
 
     Returns
     -------
@@ -216,8 +225,6 @@ def run_chains(
     ...             & (result.acceptance_rate < 0.5)))
     True
     """
-    if not callable(log_density):
-        raise TypeError(f"log_density must be callable, got {log_density!r}")
     starts = np.array(starts, dtype=float)
     if starts.ndim != 2 or starts.shape[0] < 1 or starts.shape[1] < 1:
         raise ValueError(
@@ -228,6 +235,7 @@ def run_chains(
     if not np.all(np.isfinite(starts)):
         raise ValueError("starts must be finite")
     n_chains, r = starts.shape
+    densities = _per_chain(log_density, n_chains)
     n_samples = _check_count(n_samples, "n_samples", minimum=1)
     burn_in = _check_count(burn_in, "burn_in", minimum=0)
 
@@ -254,7 +262,7 @@ def run_chains(
 
     start_values = []
     for c in range(n_chains):
-        value = _evaluate(log_density, starts[c].copy(), c)
+        value = _evaluate(densities[c], starts[c].copy(), c)
         if value == -np.inf:
             raise ValueError(
                 f"starts[{c}] has zero density (log_density = -inf); every "
@@ -265,7 +273,7 @@ def run_chains(
     seeds = np.random.SeedSequence(_entropy(random_state)).spawn(n_chains)
     outputs = Parallel(n_jobs=n_jobs, verbose=verbose)(
         delayed(_run_chain)(
-            log_density,
+            densities[c],
             starts[c],
             start_values[c],
             chols[c],
@@ -285,6 +293,25 @@ def run_chains(
         acceptance_rate=np.array(acceptance),
         proposal_cov=np.stack(covs),
     )
+
+
+def _per_chain(log_density, n_chains):
+    """One log-density callable per chain."""
+    if callable(log_density):
+        return [log_density] * n_chains
+    try:
+        densities = list(log_density)
+    except TypeError:
+        raise TypeError(
+            "log_density must be callable or a sequence of callables (one per "
+            f"chain), got {log_density!r}"
+        ) from None
+    if len(densities) != n_chains or not all(callable(f) for f in densities):
+        raise TypeError(
+            f"log_density must be callable or a sequence of {n_chains} callables "
+            f"(one per row of starts), got {len(densities)} entries"
+        )
+    return densities
 
 
 def _check_count(value, name, *, minimum):
@@ -350,7 +377,40 @@ def _run_chain(
     chain,
     verbose,
 ):
-    """One chain: adaptive burn-in, then ``n_samples`` draws with a fixed kernel."""
+    """One chain: adaptive burn-in, then ``n_samples`` draws with a fixed kernel.
+
+    BLAS is held to one thread: the chain's arithmetic is then the same in
+    any worker (process or thread) of any joblib backend.
+    """
+    with threadpool_limits(limits=1, user_api="blas"):
+        return _run_chain_body(
+            log_density,
+            start,
+            start_value,
+            chol,
+            n_samples=n_samples,
+            burn_in=burn_in,
+            adapt=adapt,
+            seed=seed,
+            chain=chain,
+            verbose=verbose,
+        )
+
+
+def _run_chain_body(
+    log_density,
+    start,
+    start_value,
+    chol,
+    *,
+    n_samples,
+    burn_in,
+    adapt,
+    seed,
+    chain,
+    verbose,
+):
+    started = time.perf_counter()
     rng = np.random.default_rng(seed)
     r = start.size
     theta = start.copy()
@@ -403,7 +463,15 @@ def _run_chain(
                     pass  # keep the previous shape
 
     # Fixed kernel after burn-in.
+    if verbose >= 2:
+        print(
+            f"chain {chain}: burn-in of {burn_in} steps done in "
+            f"{time.perf_counter() - started:.1f} s, scale factor "
+            f"{exp(log_scale):.3g}",
+            flush=True,
+        )
     chol = exp(0.5 * log_scale) * chol
+    quarters = {(k * n_samples) // 4 for k in range(1, 4)} - {0}
     samples = np.empty((n_samples, r))
     values = np.empty(n_samples)
     n_accept = 0
@@ -422,11 +490,18 @@ def _run_chain(
             samples[step] = theta
             values[step] = logp
             step += 1
+            if verbose >= 2 and step in quarters:
+                print(
+                    f"chain {chain}: {step}/{n_samples} draws "
+                    f"({time.perf_counter() - started:.1f} s)",
+                    flush=True,
+                )
     acceptance = n_accept / n_samples
     if verbose >= 2:
         print(
-            f"chain {chain}: scale factor {exp(log_scale):.3g}, "
-            f"acceptance {acceptance:.3f}"
+            f"chain {chain}: {n_samples} draws done in "
+            f"{time.perf_counter() - started:.1f} s, acceptance {acceptance:.3f}",
+            flush=True,
         )
     return samples, values, acceptance, chol @ chol.T
 

@@ -555,13 +555,15 @@ class Spline(_DACECorrelation):
 
     @staticmethod
     def _profile(zeta):
-        inner = 1.0 - 15.0 * zeta**2 + 30.0 * zeta**3
+        z = np.minimum(zeta, 0.2)  # the inner piece only; no overflow of z**3
+        inner = 1.0 - 15.0 * z**2 + 30.0 * z**3
         outer = 1.25 * np.clip(1.0 - zeta, 0.0, None) ** 3
         return np.where(zeta <= 0.2, inner, outer)
 
     @staticmethod
     def _profile_derivative(zeta):
-        inner = 90.0 * zeta**2 - 30.0 * zeta
+        z = np.minimum(zeta, 0.2)
+        inner = 90.0 * z**2 - 30.0 * z
         outer = -3.75 * np.clip(1.0 - zeta, 0.0, None) ** 2
         return np.where(zeta <= 0.2, inner, outer)
 
@@ -618,7 +620,8 @@ def check_correlation(kernel, X):
             "The kernel must be a correlation with unit diagonal "
             f"(kernel.diag(X) == 1), but {kernel!r} has diagonal values in "
             f"[{np.min(diag):.6g}, {np.max(diag):.6g}]. Remove ConstantKernel "
-            "or WhiteKernel factors/terms: MultiResponseGP estimates the "
+            "or WhiteKernel factors/terms (e.g. pass RBF() instead of "
+            "ConstantKernel(2.0) * RBF()): MultiResponseGP estimates the "
             "variances itself in sigma2_ and per-response noise through "
             "noise=True."
         )

@@ -1,22 +1,34 @@
 """Tests of MultiResponseGP: known answers, identities and the sklearn API."""
 
+import io
+import os
 import pickle
+import traceback
+import types
 import warnings
 
+import joblib
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra import numpy as hnp
 from scipy.optimize import minimize
 from sklearn.base import clone
-from sklearn.gaussian_process.kernels import RBF, Matern, WhiteKernel
+from sklearn.exceptions import ConvergenceWarning
+from sklearn.gaussian_process.kernels import RBF, ConstantKernel, Matern, WhiteKernel
 from sklearn.metrics import r2_score
 from sklearn.model_selection import GridSearchCV, KFold
 from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import StandardScaler
 
+import skmba
 from skmba import MultiResponseGP
+from skmba._gp import _next_nugget
 from skmba._likelihood import NoisyLikelihood, maximise_noise_and_sigma2
 from skmba._linalg import FactorizationError, symmetric_eigh
 from skmba._regression import regression_basis
+from skmba.datasets import make_cantilever
 from skmba.kernels import Cubic, Exp, Gauss, Linear, Spherical
 
 SIGMA2 = np.array([[4.0, 1.2, -0.8], [1.2, 1.0, 0.3], [-0.8, 0.3, 2.25]])
@@ -425,55 +437,314 @@ def test_sklearn_kernels_are_accepted_as_correlations():
 
 
 # ------------------------------------------------------------------ bad input
-@pytest.mark.parametrize(
-    ("params", "exception", "match"),
-    [
-        ({"regression": "cubic"}, ValueError, "regression"),
-        ({"alpha": -1.0}, ValueError, "alpha"),
-        ({"alpha": "big"}, TypeError, "alpha"),
-        ({"n_restarts_optimizer": -1}, ValueError, "n_restarts_optimizer"),
-        ({"optimizer": "adam"}, ValueError, "optimizer"),
-        ({"kernel": "rbf"}, TypeError, "kernel"),
-        ({"kernel": RBF() + WhiteKernel()}, ValueError, "unit diagonal"),
-    ],
-)
-def test_bad_parameters_raise(params, exception, match):
-    X = np.linspace(0, 1, 8).reshape(-1, 2)
-    with pytest.raises(exception, match=match):
-        MultiResponseGP(**params).fit(X, X.sum(axis=1))
+def _bad_data(seed=14, n=12):
+    X = np.random.default_rng(seed).uniform(size=(n, 2))
+    return X, two_responses(X)
 
 
-def test_bad_data_raise():
-    X = np.random.default_rng(14).uniform(size=(10, 2))
-    y = X.sum(axis=1)
-    gp = MultiResponseGP()
-    with pytest.raises(ValueError, match="NaN"):
-        gp.fit(np.where(X > 0.9, np.nan, X), y)
-    with pytest.raises(ValueError, match="infinity"):
-        gp.fit(X, np.where(y > 1.5, np.inf, y))
-    with pytest.raises(ValueError, match="inconsistent numbers of samples"):
-        gp.fit(X, y[:-1])
-    with pytest.raises(ValueError, match="3 dimensions"):
-        gp.fit(X, y.reshape(10, 1, 1))
-    with pytest.raises(ValueError, match="too few for regression='quadratic'"):
-        MultiResponseGP(regression="quadratic").fit(X[:6], y[:6])
-    gp.fit(X, y)
-    with pytest.raises(ValueError, match="features"):
-        gp.predict(np.ones((3, 3)))
-    with pytest.raises(RuntimeError, match="return_std or return_cov"):
-        gp.predict(X, return_std=True, return_cov=True)
+def _with(A, row, col, value):
+    A = A.copy()
+    A[row, col] = value
+    return A
 
 
-def test_duplicate_inputs_without_nugget_name_the_remedy():
+X_BAD, Y_BAD = _bad_data()
+
+
+def _fit(X=X_BAD, y=Y_BAD, **params):
+    return lambda gp: MultiResponseGP(**params).fit(X, y)
+
+
+# case id -> (action on a fitted GP, exception or warning, message fragment).
+# Every message names the argument and, except sklearn's standard checks, the
+# fix. Warnings are documented behaviour: the fit goes on.
+BAD_INPUT = {
+    # non-finite values (sklearn's validation)
+    "fit-X-nan": (
+        _fit(X=_with(X_BAD, 3, 1, np.nan)),
+        ValueError,
+        "Input X contains NaN",
+    ),
+    "fit-X-inf": (
+        _fit(X=_with(X_BAD, 0, 0, np.inf)),
+        ValueError,
+        "X contains infinity",
+    ),
+    "fit-y-nan": (
+        _fit(y=_with(Y_BAD, 2, 0, np.nan)),
+        ValueError,
+        "Input y contains NaN",
+    ),
+    "fit-y-inf": (
+        _fit(y=_with(Y_BAD, 5, 1, -np.inf)),
+        ValueError,
+        "y contains infinity",
+    ),
+    "predict-X-nan": (
+        lambda gp: gp.predict(_with(X_BAD, 0, 0, np.nan)),
+        ValueError,
+        "Input X contains NaN",
+    ),
+    "predict-X-inf": (
+        lambda gp: gp.predict(_with(X_BAD, 0, 1, np.inf)),
+        ValueError,
+        "X contains infinity",
+    ),
+    # magnitudes whose squares overflow or underflow float64
+    "fit-X-huge": (_fit(X=X_BAD * 1e200), ValueError, r"X has values up to .*Rescale"),
+    "fit-X-tiny-range": (
+        _fit(X=X_BAD * 1e-200),
+        ValueError,
+        r"X column\(s\) \[0, 1\] vary by less than 1e-150.*Rescale",
+    ),
+    "fit-y-huge": (_fit(y=Y_BAD * 1e200), ValueError, "y has values up to .*units"),
+    "fit-y-tiny-range": (
+        _fit(y=Y_BAD * 1e-200),
+        ValueError,
+        r"Response\(s\) \[0, 1\] vary by less than 1e-150.*units",
+    ),
+    # shapes and dimensions
+    "fit-X-3d": (_fit(X=X_BAD[:, :, None]), ValueError, "Found array with dim 3"),
+    "fit-X-1d": (_fit(X=X_BAD[:, 0]), ValueError, r"(?s)Expected 2D array.*reshape"),
+    "fit-y-3d": (_fit(y=Y_BAD[:, :, None]), ValueError, "y has 3 dimensions"),
+    "fit-y-rows": (
+        _fit(y=Y_BAD[:-1]),
+        ValueError,
+        r"inconsistent numbers of samples: \[12, 11\]",
+    ),
+    "predict-features": (
+        lambda gp: gp.predict(np.ones((3, 3))),
+        ValueError,
+        "X has 3 features, but MultiResponseGP is expecting 2",
+    ),
+    "predict-X-3d": (
+        lambda gp: gp.predict(np.ones((3, 2, 1))),
+        ValueError,
+        "Found array with dim 3",
+    ),
+    "kernel-roughness-length": (
+        _fit(kernel=Gauss(roughness=[1.0, 2.0, 3.0])),
+        ValueError,
+        "roughness has 3 elements but X has 2 columns",
+    ),
+    # too little data
+    "fit-empty": (_fit(X=X_BAD[:0], y=Y_BAD[:0]), ValueError, r"0 sample\(s\)"),
+    "fit-no-features": (_fit(X=X_BAD[:, :0]), ValueError, r"0 feature\(s\)"),
+    "fit-single-sample": (
+        _fit(X=X_BAD[:1], y=Y_BAD[:1]),
+        ValueError,
+        "n_samples=1 is too few .* at least 2 samples",
+    ),
+    "fit-quadratic-too-few": (
+        _fit(X=X_BAD[:6], y=Y_BAD[:6], regression="quadratic"),
+        ValueError,
+        "too few for regression='quadratic'.*lower-order regression",
+    ),
+    "fit-too-few-for-sigma2": (
+        _fit(X=X_BAD[:2], y=Y_BAD[:2]),
+        ValueError,
+        r"2 x 2 response covariance.*n_samples >= p \+ q = 3.*response_nugget",
+    ),
+    # constant inputs and responses
+    "fit-constant-column-linear": (
+        _fit(X=_with(X_BAD, slice(None), 1, 0.5), regression="linear"),
+        ValueError,
+        r"regression='linear' cannot be estimated: X column\(s\) \[1\] are constant",
+    ),
+    "fit-collinear-quadratic": (
+        _fit(X=np.column_stack([X_BAD[:, 0], 2 * X_BAD[:, 0]]), regression="linear"),
+        ValueError,
+        "regression='linear' cannot be estimated: its 3 terms have rank 2",
+    ),
+    "fit-identical-rows": (
+        _fit(X=np.tile(X_BAD[:1], (12, 1))),
+        ValueError,
+        "All 12 rows of X are identical.*at least 2 distinct",
+    ),
+    "fit-identical-rows-noise": (
+        _fit(X=np.tile(X_BAD[:1], (12, 1)), noise=True),
+        ValueError,
+        "All 12 rows of X are identical",
+    ),
+    "fit-constant-responses": (
+        _fit(y=np.full((12, 2), 4.0)),
+        UserWarning,
+        "All responses are constant: the GP predicts them exactly",
+    ),
+    # duplicated inputs without noise
+    "fit-duplicates-different-y": (
+        _fit(X=np.vstack([X_BAD, X_BAD[:2]]), y=np.vstack([Y_BAD, Y_BAD[:2] + 0.1])),
+        ValueError,
+        r"2 duplicated row\(s\) with different y .*noise=True",
+    ),
+    "fit-duplicates-equal-y": (
+        _fit(X=np.vstack([X_BAD, X_BAD[:2]]), y=np.vstack([Y_BAD, Y_BAD[:2]])),
+        UserWarning,
+        r"2 duplicated row\(s\) \(e.g. rows 0 and 12\) with equal y.*Remove them",
+    ),
+    # options
+    "regression-unknown": (
+        _fit(regression="cubic"),
+        ValueError,
+        "regression='cubic' is not supported; use one of 'constant'",
+    ),
+    "optimizer-unknown": (
+        _fit(optimizer="adam"),
+        ValueError,
+        "optimizer='adam' is not supported; use 'fmin_l_bfgs_b', None",
+    ),
+    "kernel-not-a-kernel": (
+        _fit(kernel="rbf"),
+        TypeError,
+        r"kernel must be an sklearn Kernel \(e.g. skmba.kernels.Gauss\(\)\)",
+    ),
+    "noise-not-bool": (_fit(noise="yes"), TypeError, "noise must be True or False"),
+    "normalize_y-not-bool": (
+        _fit(normalize_y=1),
+        TypeError,
+        "normalize_y must be True or False",
+    ),
+    # negative or zero sizes and values
+    "n_restarts_optimizer-negative": (
+        _fit(n_restarts_optimizer=-1),
+        ValueError,
+        "n_restarts_optimizer must be a non-negative integer, got -1",
+    ),
+    "n_restarts_optimizer-float": (
+        _fit(n_restarts_optimizer=1.5),
+        ValueError,
+        "n_restarts_optimizer must be a non-negative integer, got 1.5",
+    ),
+    "alpha-negative": (
+        _fit(alpha=-1.0),
+        ValueError,
+        r"alpha=-1.0 is negative; the nugget must be >= 0 \(e.g. alpha=1e-10\)",
+    ),
+    "alpha-nan": (_fit(alpha=np.nan), TypeError, "alpha must be a finite float"),
+    "alpha-string": (_fit(alpha="big"), TypeError, "alpha must be a finite float"),
+    "response_nugget-negative": (
+        _fit(response_nugget=-1e-8),
+        ValueError,
+        "response_nugget must be a non-negative float",
+    ),
+    "sample_y-n_samples-zero": (
+        lambda gp: gp.sample_y(X_BAD[:2], n_samples=0),
+        ValueError,
+        r"n_samples must be a positive integer .* got 0; e.g. n_samples=1",
+    ),
+    "sample_y-n_samples-negative": (
+        lambda gp: gp.sample_y(X_BAD[:2], n_samples=-3),
+        ValueError,
+        "n_samples must be a positive integer",
+    ),
+    "sample_y-n_samples-float": (
+        lambda gp: gp.sample_y(X_BAD[:2], n_samples=2.0),
+        ValueError,
+        "n_samples must be a positive integer",
+    ),
+    "predict-std-and-cov": (
+        lambda gp: gp.predict(X_BAD, return_std=True, return_cov=True),
+        RuntimeError,
+        "At most one of return_std or return_cov",
+    ),
+    "log_marginal_likelihood-theta-shape": (
+        lambda gp: gp.log_marginal_likelihood([0.0, 1.0, 2.0]),
+        ValueError,
+        r"theta must be a finite array of shape \(2,\)",
+    ),
+    "log_marginal_likelihood-gradient-without-theta": (
+        lambda gp: gp.log_marginal_likelihood(eval_gradient=True),
+        ValueError,
+        "Gradient can only be evaluated for theta!=None",
+    ),
+    "predict-before-fit": (
+        lambda gp: MultiResponseGP().predict(X_BAD),
+        ValueError,  # NotFittedError is a ValueError
+        "not fitted yet. Call 'fit'",
+    ),
+    # kernels that are not correlations: a clear error (DESIGN.md section 2)
+    "kernel-scaled": (
+        _fit(kernel=ConstantKernel(2.0) * RBF()),
+        ValueError,
+        r"unit diagonal .* in \[2, 2\].*RBF\(\) instead of ConstantKernel",
+    ),
+    "kernel-with-white-noise": (
+        _fit(kernel=RBF() + WhiteKernel()),
+        ValueError,
+        "unit diagonal.*noise=True",
+    ),
+}
+
+
+@pytest.fixture(scope="module")
+def fitted_gp():
+    return MultiResponseGP(Gauss(roughness=[1.0, 1.0])).fit(X_BAD, Y_BAD)
+
+
+@pytest.mark.parametrize("case", list(BAD_INPUT), ids=list(BAD_INPUT))
+def test_bad_input_gives_a_clear_message(case, fitted_gp):
+    action, expected, match = BAD_INPUT[case]
+    if issubclass(expected, Warning):
+        with pytest.warns(expected, match=match):
+            action(fitted_gp)
+    else:
+        with pytest.raises(expected, match=match):
+            action(fitted_gp)
+
+
+def test_constant_input_column_is_harmless_with_constant_regression():
+    X = X_BAD.copy()
+    X[:, 1] = 0.5
+    Y = two_responses(X)
+    gp = MultiResponseGP(Gauss(roughness=[1.0, 1.0])).fit(X, Y)
+    mean, std = gp.predict(X + 0.01, return_std=True)
+    assert np.all(np.isfinite(mean)) and np.all(np.isfinite(std))
+    # the constant column carries no likelihood gradient: its roughness stays
+    assert gp.kernel_.roughness[1] == 1.0
+    np.testing.assert_allclose(gp.predict(X), Y, atol=1e-4)  # nugget-limited
+
+
+def test_duplicated_inputs_are_replicates_with_noise():
+    rng = np.random.default_rng(17)
+    X = np.vstack([X_BAD] * 3)
+    Y = np.vstack([Y_BAD] * 3) + 0.01 * rng.normal(size=(36, 2))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no duplicate warning with noise=True
+        gp = MultiResponseGP(Gauss(roughness=[1.0, 1.0]), noise=True).fit(X, Y)
+    assert np.all((gp.noise_ > 0.3e-4) & (gp.noise_ < 3e-4)), gp.noise_
+    _, std = gp.predict(X_BAD, return_std=True)
+    assert np.all(std < 0.01)
+
+
+def test_duplicate_inputs_without_nugget_escalate_it():
     X = np.repeat(np.linspace(0, 1, 6), 2).reshape(-1, 1)
     y = np.sin(3 * X[:, 0])
-    with pytest.raises(FactorizationError, match="alpha"):
-        MultiResponseGP(Gauss(roughness=1.0), alpha=0.0, optimizer=None).fit(X, y)
-    # a nugget or a noise term handles them
-    assert (
-        MultiResponseGP(Gauss(roughness=1.0), alpha=1e-6).fit(X, y).score(X, y) > 0.99
-    )
+    gp = MultiResponseGP(Gauss(roughness=1.0), alpha=0.0, optimizer=None)
+    with pytest.warns(UserWarning, match="duplicated row"):
+        with pytest.warns(UserWarning, match=r"nugget alpha=0 \(its Cholesky"):
+            gp.fit(X, y)
+    assert 0 < gp.alpha_ <= 1e-6
+    assert gp.score(X, y) > 0.99
+    # a nugget or a noise term handles them from the start
+    with pytest.warns(UserWarning, match="duplicated row"):
+        gp = MultiResponseGP(Gauss(roughness=1.0), alpha=1e-6).fit(X, y)
+    assert gp.alpha_ == 1e-6
     MultiResponseGP(Gauss(roughness=1.0), noise=True).fit(X, y)
+
+
+def test_nugget_beyond_the_maximum_names_the_remedy():
+    # Cubic is not positive definite: eigenvalues near -0.15 on this grid, far
+    # below what the largest nugget (1e-6) can repair.
+    X = np.linspace(0, 1, 50).reshape(-1, 1)
+    y = np.sin(3 * X[:, 0])
+    gp = MultiResponseGP(Cubic(roughness=2.0), optimizer=None)
+    with pytest.raises(
+        FactorizationError, match="even with the nugget alpha=1e-06"
+    ) as info:
+        gp.fit(X, y)
+    message = str(info.value)
+    assert "escalated from alpha=1e-10 up to 1e-06" in message
+    assert "rougher kernel" in message and "noise=True" in message
 
 
 def test_linearly_dependent_responses_name_the_remedy():
@@ -485,3 +756,241 @@ def test_linearly_dependent_responses_name_the_remedy():
         MultiResponseGP(Gauss(roughness=[1.0, 1.0]), optimizer=None).fit(X, Y)
     gp = MultiResponseGP(Gauss(roughness=[1.0, 1.0]), noise=True).fit(X, Y)
     assert gp.score(X, Y) > 0.99
+
+
+# ------------------------------------------------------------ ill-conditioning
+def test_nugget_escalation_sequence_is_bounded():
+    sequence, nugget = [], 1e-10
+    while (nugget := _next_nugget(nugget)) is not None:
+        sequence.append(nugget)
+    np.testing.assert_allclose(sequence, [1e-9, 1e-8, 1e-7, 1e-6])
+    assert _next_nugget(0.0) == 1e-12
+    assert _next_nugget(5e-7) == 1e-6
+    assert _next_nugget(1e-6) is None
+    assert _next_nugget(1e-3) is None  # a large user nugget is used as given
+
+
+def smooth_1d(n=15, seed=1):
+    rng = np.random.default_rng(seed)
+    X = np.sort(rng.uniform(size=(n, 1)), axis=0)
+    return X, np.column_stack([np.sin(3 * X[:, 0]), np.exp(X[:, 0])])
+
+
+def test_search_stopped_by_failed_factorisations_escalates_the_nugget():
+    # Without a nugget the first L-BFGS-B step (to the smoothest kernel) fails
+    # to factor R; L-BFGS-B then reports convergence at its starting point.
+    # The fit notices (gradient far from 0) and escalates the nugget instead
+    # of keeping the unoptimised kernel.
+    X, Y = smooth_1d()
+    gp = MultiResponseGP(Gauss(roughness=100.0), alpha=0.0)
+    with pytest.warns(UserWarning, match="search was stopped by failed Cholesky"):
+        gp.fit(X, Y)
+    assert gp.alpha_ == 1e-12
+    assert 0.3 < gp.kernel_.roughness < 3.0  # moved from the start (100)
+    X_test = np.linspace(0, 1, 50).reshape(-1, 1)
+    Y_test = np.column_stack([np.sin(3 * X_test[:, 0]), np.exp(X_test[:, 0])])
+    assert r2_score(Y_test, gp.predict(X_test)) > 0.999
+    # the fitted state, the likelihood and predictions all use alpha_
+    assert gp.log_marginal_likelihood(gp.kernel_.theta) == pytest.approx(
+        gp.log_marginal_likelihood_value_, rel=1e-10
+    )
+
+
+def test_search_still_stopped_at_the_maximum_nugget_warns(monkeypatch):
+    monkeypatch.setattr(skmba._gp, "_MAX_ALPHA", 0.0)
+    X, Y = smooth_1d()
+    gp = MultiResponseGP(Gauss(roughness=100.0), alpha=0.0)
+    with pytest.warns(ConvergenceWarning, match="still stopped by a numerically"):
+        gp.fit(X, Y)
+    assert gp.alpha_ == 0.0
+
+
+def cantilever_split(n_train, n_test=300, **kwargs):
+    """Simulations of the cantilever model, inputs [X_sim, theta_sim]."""
+    data = make_cantilever(n_train + n_test, random_state=0, **kwargs)
+    Z = np.hstack([data.X_sim, data.theta_sim])
+    Y = data.y_sim
+    return Z[:n_train], Y[:n_train], Z[n_train:], Y[n_train:]
+
+
+def test_thousand_cantilever_simulations_are_emulated():
+    # Force, moment, E and I (sections 4.7.2-4.7.3) over 1,000 LHS runs and
+    # three responses; the thesis' implementation became unstable from about
+    # 265 simulations (section 4.7.1). One N x N Cholesky per likelihood
+    # evaluation: about 3 s here.
+    Z, Y, Z_test, Y_test = cantilever_split(
+        1000,
+        responses=("tip_displacement", "energy", "tip_rotation"),
+        design_variables=("force", "moment"),
+        parameters=("E", "I"),
+    )
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        gp = MultiResponseGP().fit(Z, Y)
+    assert not [w for w in caught if "numerically singular" in str(w.message)]
+    assert gp.alpha_ == 1e-10
+    mean, std = gp.predict(Z_test, return_std=True)
+    r2 = r2_score(Y_test, mean, multioutput="raw_values")
+    assert np.all(r2 > 0.999), r2
+    assert np.all(np.isfinite(std)) and np.all(std > 0)
+    # honest uncertainty: the errors are of the order of the predicted std
+    assert 0.05 < np.median(np.abs(mean - Y_test) / std) < 2.0
+
+
+def test_thousand_simulations_without_nugget_escalate_it():
+    # Section 4.7.1 (force and E) with no nugget, as in the thesis: R cannot
+    # be factored at the start; the nugget is escalated with one warning.
+    Z, Y, Z_test, Y_test = cantilever_split(1000)
+    gp = MultiResponseGP(alpha=0.0)
+    with pytest.warns(UserWarning, match=r"raised to alpha_=1e-12") as caught:
+        gp.fit(Z, Y)
+    escalations = [w for w in caught if "numerically singular" in str(w.message)]
+    assert len(escalations) == 1
+    assert gp.alpha_ == 1e-12
+    r2 = r2_score(Y_test, gp.predict(Z_test), multioutput="raw_values")
+    assert np.all(r2 > 0.999), r2
+
+
+# ----------------------------------------------------------------- persistence
+def _callables_in(obj, seen=None):
+    """Functions, methods, generators or open files reachable from ``obj``."""
+    seen = set() if seen is None else seen
+    if id(obj) in seen or isinstance(obj, np.ndarray | str | bytes | int | float):
+        return []
+    seen.add(id(obj))
+    if isinstance(
+        obj,
+        types.FunctionType
+        | types.MethodType
+        | types.BuiltinFunctionType
+        | types.GeneratorType
+        | io.IOBase,
+    ):
+        return [obj]
+    if isinstance(obj, dict):
+        children = list(obj.values())
+    elif isinstance(obj, list | tuple | set):
+        children = list(obj)
+    elif hasattr(obj, "__dict__"):
+        children = list(vars(obj).values())
+    else:
+        children = []
+    return [bad for child in children for bad in _callables_in(child, seen)]
+
+
+def _gp_outputs(gp, X):
+    mean, std = gp.predict(X, return_std=True)
+    _, cov = gp.predict(X, return_cov=True)
+    value, grad = gp.log_marginal_likelihood(gp.kernel_.theta + 0.1, True)
+    return [
+        mean,
+        std,
+        cov,
+        gp.sample_y(X, n_samples=5, random_state=3),
+        np.array([gp.log_marginal_likelihood(), value]),
+        grad,
+    ]
+
+
+@pytest.mark.parametrize("noise", [False, True])
+def test_fitted_gp_survives_pickle_and_joblib(noise, tmp_path):
+    rng = np.random.default_rng(18)
+    X = rng.uniform(size=(25, 2))
+    Y = two_responses(X) + 0.01 * noise * rng.normal(size=(25, 2))
+    gp = MultiResponseGP(
+        Exp(roughness=[1.0, 2.0]), noise=noise, regression="linear"
+    ).fit(X, Y)
+    assert _callables_in(gp) == []
+    X_new = rng.uniform(size=(6, 2))
+    expected = _gp_outputs(gp, X_new)
+    joblib.dump(gp, tmp_path / "gp.joblib")
+    for restored in (
+        pickle.loads(pickle.dumps(gp)),
+        joblib.load(tmp_path / "gp.joblib"),
+    ):
+        assert restored.alpha_ == gp.alpha_
+        assert repr(restored.kernel_) == repr(gp.kernel_)
+        for got, want in zip(_gp_outputs(restored, X_new), expected, strict=True):
+            np.testing.assert_array_equal(got, want)
+
+
+# ---------------------------------------------------------------------- memory
+def test_fit_checks_memory_before_allocating(monkeypatch):
+    monkeypatch.setattr(skmba._linalg, "_available_memory", lambda: 10**6)
+    X = np.random.default_rng(19).uniform(size=(400, 2))
+    gp = MultiResponseGP()
+    with pytest.raises(MemoryError) as info:
+        gp.fit(X, two_responses(X))
+    message = str(info.value)
+    assert message.startswith("Fitting MultiResponseGP to 400 samples (the 400 x 400")
+    assert "needs 0.0095367 GiB of memory, but only 0.000931 GiB is available" in (
+        message
+    )
+    assert "Fit on fewer samples" in message
+    assert not hasattr(gp, "X_train_")  # refused before anything was stored
+
+
+def test_joint_covariance_checks_memory_and_std_is_batched(monkeypatch):
+    X, Y = X_BAD, Y_BAD
+    gp = MultiResponseGP(Gauss(roughness=[1.0, 1.0])).fit(X, Y)
+    X_new = np.random.default_rng(20).uniform(size=(40, 2))
+    mean, std = gp.predict(X_new, return_std=True)
+    monkeypatch.setattr(skmba._linalg, "_available_memory", lambda: 10**5)
+    # (40 points x 2 responses)^2 x 8 bytes x 3 arrays = 0.15 MB > 0.1 MB
+    with pytest.raises(MemoryError, match=r"joint predictive covariance of 40 points"):
+        gp.predict(X_new, return_cov=True)
+    with pytest.raises(MemoryError, match=r"fewer points at a time.*return_std=True"):
+        gp.sample_y(X_new, n_samples=2)
+    # means and standard deviations need no (s q)^2 array, and come in batches
+    monkeypatch.setattr(skmba._gp, "_PREDICT_BATCH_BYTES", 8 * 12 * 6 * 7)
+    mean_batched, std_batched = gp.predict(X_new, return_std=True)  # 7 per batch
+    np.testing.assert_allclose(mean_batched, mean, rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(std_batched, std, rtol=1e-10, atol=1e-14)
+
+
+# ------------------------------------------------------- property-based tests
+FINITE = st.floats(-1e3, 1e3, allow_nan=False, allow_subnormal=False)
+
+
+@st.composite
+def gp_problems(draw):
+    n = draw(st.integers(1, 12))
+    d = draw(st.integers(1, 3))
+    q = draw(st.integers(1, 3))
+    X = draw(hnp.arrays(np.float64, (n, d), elements=FINITE))
+    Y = draw(hnp.arrays(np.float64, (n, q), elements=FINITE))
+    regression = draw(st.sampled_from(["constant", "linear", "quadratic"]))
+    return X, Y, regression, draw(st.booleans())
+
+
+SKMBA_DIR = os.path.dirname(skmba.__file__)
+
+
+@settings(max_examples=150, deadline=None, database=None, derandomize=True)
+@given(gp_problems())
+def test_fit_gives_finite_predictions_or_a_clear_error(problem):
+    X, Y, regression, noise = problem
+    gp = MultiResponseGP(regression=regression, noise=noise, random_state=0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # documented warnings are allowed
+        try:
+            gp.fit(X, Y)
+        except ValueError as exc:
+            # raised by skmba with a message, never a bare LinAlgError
+            if isinstance(exc, np.linalg.LinAlgError):
+                assert isinstance(exc, FactorizationError), repr(exc)
+            origin = traceback.extract_tb(exc.__traceback__)[-1].filename
+            assert origin.startswith(SKMBA_DIR), (origin, repr(exc))
+            assert len(str(exc)) > 20
+            return
+        X_new = np.vstack([X, X + 0.37])
+        mean, std = gp.predict(X_new, return_std=True)
+        draws = gp.sample_y(X[:3], n_samples=2)
+    assert mean.shape == std.shape == (2 * len(X), Y.shape[1])
+    assert np.all(np.isfinite(mean)) and np.all(np.isfinite(std))
+    assert np.all(std >= 0)
+    assert draws.shape == (min(3, len(X)), Y.shape[1], 2)
+    assert np.all(np.isfinite(draws))
+    # +inf only when every response is constant (predicted exactly)
+    assert np.isfinite(gp.log_marginal_likelihood_value_) or np.all(np.ptp(Y, 0) == 0)
+    assert gp.sigma2_.shape == (Y.shape[1],) * 2 and np.all(np.isfinite(gp.sigma2_))

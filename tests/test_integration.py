@@ -106,6 +106,23 @@ def test_blocks_and_jobs_do_not_change_the_result(emulator):
         np.testing.assert_allclose(u, v, rtol=1e-12, atol=1e-14)
 
 
+def test_many_field_inputs_use_smaller_blocks(emulator, monkeypatch):
+    # The blocks shrink with n (memory) but the result does not change.
+    import skmba._integration as integration
+
+    gp, Z = emulator
+    nodes, weights = check_prior([stats.uniform(-1, 2)]).integration_nodes(40)
+    X_e = np.linspace(-0.9, 0.9, 12)[:, None]
+    args = (gp._fit_state, gp.kernel_, "constant", Z, X_e, nodes, weights)
+    full = integrate_emulator(*args)
+    assert integration.nodes_per_block(12) == 64
+    monkeypatch.setattr(integration, "BLOCK_BYTES", 3 * 8 * 12**2 * 5)
+    assert integration.nodes_per_block(12) == 5
+    small = integrate_emulator(*args, n_jobs=2)
+    for u, v in zip(full, small, strict=True):
+        np.testing.assert_allclose(u, v, rtol=1e-12, atol=1e-14)
+
+
 def test_weighted_moments_spread_is_the_law_of_total_variance():
     rng = np.random.default_rng(1)
     values = rng.normal(size=(500, 3, 2))

@@ -280,6 +280,66 @@ def test_invalid_arguments(kwargs, match):
         run_chains(standard_normal, **arguments)
 
 
+class CountingDensity:
+    """The standard normal log density, counting its calls."""
+
+    def __init__(self):
+        self.calls = 0
+
+    def __call__(self, theta):
+        self.calls += 1
+        return standard_normal(theta)
+
+
+def test_one_log_density_per_chain():
+    # A sequence gives chain c the c-th callable (e.g. with its own cache):
+    # each is called for its chain only, and the draws equal those of a
+    # shared callable.
+    densities = [CountingDensity() for _ in range(3)]
+    starts = np.zeros((3, 2))
+    per_chain = run_chains(
+        densities, starts, n_samples=40, burn_in=60, n_jobs=1, random_state=3
+    )
+    assert [f.calls for f in densities] == [1 + 60 + 40] * 3
+    shared = run_chains(
+        standard_normal, starts, n_samples=40, burn_in=60, random_state=3
+    )
+    _assert_identical(per_chain, shared)
+
+
+@pytest.mark.parametrize(
+    ("log_density", "match"),
+    [
+        ("normal", "sequence of 2 callables"),
+        ([standard_normal], "sequence of 2 callables .* got 1 entries"),
+        (3.0, "callable or a sequence of callables"),
+    ],
+)
+def test_invalid_log_density(log_density, match):
+    with pytest.raises(TypeError, match=match):
+        run_chains(log_density, np.zeros((2, 1)), n_samples=5, burn_in=5)
+
+
+def test_verbose_progress_of_each_chain(capsys):
+    run_chains(
+        standard_normal,
+        np.zeros((2, 1)),
+        n_samples=100,
+        burn_in=50,
+        random_state=0,
+        verbose=2,
+        n_jobs=1,
+    )
+    out = capsys.readouterr().out
+    for c in range(2):
+        assert f"chain {c}: burn-in of 50 steps done in" in out
+        for k in (25, 50, 75):
+            assert f"chain {c}: {k}/100 draws" in out
+        assert f"chain {c}: 100 draws done in" in out
+    run_chains(standard_normal, np.zeros((2, 1)), n_samples=10, burn_in=10)
+    assert capsys.readouterr().out == ""
+
+
 # ---------------------------------------------------------------------------
 # Diagnostics
 
