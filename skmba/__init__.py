@@ -8,12 +8,18 @@ Examples
 --------
 >>> import skmba
 >>> sorted(name for name in skmba.__all__ if not name.startswith("_"))
-['ModularBayesCalibrator', 'MultiResponseGP']
+['ModularBayesCalibrator', 'MultiResponseGP', 'PreposteriorDesigner']
 """
 
 from skmba._calibration import ModularBayesCalibrator
 from skmba._gp import MultiResponseGP
+from skmba._sensor_design import PreposteriorDesigner
 
 __version__ = "0.1.0.dev0"
 
-__all__ = ["ModularBayesCalibrator", "MultiResponseGP", "__version__"]
+__all__ = [
+    "ModularBayesCalibrator",
+    "MultiResponseGP",
+    "PreposteriorDesigner",
+    "__version__",
+]

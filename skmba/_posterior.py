@@ -159,8 +159,9 @@ class GlobalModel:
     def whiten(self, theta):
         """Factor the global model at ``theta`` (cached for the last theta)."""
         theta = np.asarray(theta, dtype=float).ravel()
-        if self._cache is not None and np.array_equal(self._cache.theta, theta):
-            return self._cache
+        cache = self._cache  # one read: another thread may replace it
+        if cache is not None and np.array_equal(cache.theta, theta):
+            return cache
         N, n, q = self.N, self.n, self.q
         P_e = self._field_inputs(theta, self.X_e)
         r = self.kernel_m(self.X_m, P_e)  # (N, n)
@@ -197,7 +198,7 @@ class GlobalModel:
             + 2.0 * np.sum(np.log(diag))
             + rss
         )
-        self._cache = _Whitened(
+        whitened = _Whitened(
             theta=theta,
             P_e=P_e,
             Rt=Rt,
@@ -209,7 +210,8 @@ class GlobalModel:
             X_bot=X_bot,
             log_likelihood=log_likelihood,
         )
-        return self._cache
+        self._cache = whitened
+        return whitened
 
     def log_likelihood(self, theta):
         """``log p(Y | theta, D, phi)`` with ``beta`` integrated out (Eq. 4.30).
@@ -276,3 +278,219 @@ class GlobalModel:
         reduction = np.sum(top**2, axis=0) + np.sum(bot**2, axis=0)
         var = prior_diag.T.ravel() - reduction + np.sum(Ut**2, axis=0)
         return mean, np.clip(var.reshape(q, s).T, 0.0, None)
+
+
+# ---------------------------------------------------------------------------
+# The same likelihood for many response subsets and many theta at once.
+# ---------------------------------------------------------------------------
+class FieldDesignEmulator:
+    """The theta-dependent pieces of :class:`GlobalModel` at a fixed design.
+
+    The sensor designer evaluates the module-3 likelihood of Eq. 4.30 for
+    every response subset of every Monte Carlo replicate at the same field
+    inputs ``X_e``. What depends on ``theta`` through the emulator does not
+    depend on the responses or on the field data::
+
+        Rt(theta)  = C_m^-1 R_m(D_m, D_e(theta))                 (N, n)
+        T(theta)   = R_m(D_e(theta)) - Rt' Rt                     (n, n)
+        H_me(theta) = H_m(D_e(theta)) - Rt' C_m^-1 H_m            (n, p_m)
+        M(theta)   = Rt' C_m^-1 Y_m                               (n, q)
+
+    so :meth:`pieces` computes them once per ``theta`` for all subsets, and
+    :meth:`simulation_block` the theta-independent simulation block of a
+    subset once per subset (both as in :class:`GlobalModel`).
+
+    Parameters
+    ----------
+    model_fit : NoiseFreeLikelihood
+        The fitted module-1 emulator state.
+    X_m : ndarray of shape (N, d + r)
+    Y_m : ndarray of shape (N, q)
+    model_kernel : sklearn Kernel
+    model_regression : str
+    X_e : ndarray of shape (n, d)
+        The field design (standardised).
+
+    Examples
+    --------
+    ``tests/test_posterior.py`` checks :class:`SubsetLikelihood` against
+    :class:`GlobalModel` restricted to the same responses.
+    """
+
+    def __init__(self, model_fit, X_m, Y_m, model_kernel, model_regression, X_e):
+        self.X_m, self.X_e = X_m, X_e
+        self.kernel_m, self.regression_m = model_kernel, model_regression
+        self.C_m = model_fit.C
+        self.sigma2_m = model_fit.sigma2
+        self.H_m_white = model_fit.gls.H_white
+        self.Y_m_white = linalg.solve_triangular(self.C_m, Y_m, lower=True)
+        self.N, self.q = Y_m.shape
+        self.n = len(X_e)
+        self.p_m = self.H_m_white.shape[1]
+        self.log_det_R_m = log_det_from_cholesky(self.C_m)
+        self._blocks = {}
+
+    def pieces(self, thetas):
+        """``T``, ``H_me`` and ``M`` at the rows of ``thetas`` (standardised).
+
+        Returns
+        -------
+        T : ndarray of shape (k, n, n)
+        H_me : ndarray of shape (k, n, p_m)
+        M : ndarray of shape (k, n, q)
+        """
+        thetas = np.atleast_2d(thetas)
+        k, n = len(thetas), self.n
+        points = np.hstack([np.tile(self.X_e, (k, 1)), np.repeat(thetas, n, axis=0)])
+        Rt = linalg.solve_triangular(
+            self.C_m, self.kernel_m(self.X_m, points), lower=True
+        )  # (N, k n)
+        H_me = regression_basis(points, self.regression_m) - Rt.T @ self.H_m_white
+        M = Rt.T @ self.Y_m_white
+        Rt = Rt.reshape(self.N, k, n)
+        prior = np.stack([self.kernel_m(points[i * n : (i + 1) * n]) for i in range(k)])
+        T = prior - np.einsum("mki,mkj->kij", Rt, Rt)
+        return T, H_me.reshape(k, n, -1), M.reshape(k, n, -1)
+
+    def simulation_block(self, responses):
+        """The whitened simulation block of a response subset (cached).
+
+        Returns ``(sigma2_m, G_top, b_top, rss_top_perp, log_det_A)`` for the
+        subset: the QR of ``(L_S^-1 ⊗ C_m^-1 H_m)`` and the projection of the
+        whitened simulations on it, as in :class:`GlobalModel`.
+        """
+        key = tuple(responses)
+        if key not in self._blocks:
+            idx = list(key)
+            s = len(idx)
+            sigma2 = self.sigma2_m[np.ix_(idx, idx)]
+            L = cholesky(sigma2, what="emulator response covariance of the subset")
+            L_inv = linalg.solve_triangular(L, np.eye(s), lower=True)
+            X_top = np.kron(L_inv, self.H_m_white)
+            y_top = linalg.solve_triangular(L, self.Y_m_white[:, idx].T, lower=True)
+            y_top = y_top.ravel()
+            Q, G = linalg.qr(X_top, mode="economic")
+            b = Q.T @ y_top
+            log_det_A = self.N * log_det_from_cholesky(L) + s * self.log_det_R_m
+            self._blocks[key] = (sigma2, G, b, float(y_top @ y_top - b @ b), log_det_A)
+        return self._blocks[key]
+
+
+class SubsetLikelihood:
+    """Eq. 4.30 for a subset of the responses, at many ``theta`` at once.
+
+    The discrepancy and noise of the subset are those of all responses
+    restricted to it (``Sigma_d[S, S]``, ``Lambda[S]``), which is what a
+    multi-response GP implies for a subset. The Schur complement
+    ``S(theta)`` of each ``theta`` is factored in one batched Cholesky, and
+    the regression coefficients are integrated out through the normal
+    equations of the stacked, whitened regression (small: ``(p_m + p_d) s``
+    columns), which is equivalent to the QR of :class:`GlobalModel`.
+
+    Parameters
+    ----------
+    design : FieldDesignEmulator
+    responses : sequence of int
+        The subset ``S``.
+    Y_e : ndarray of shape (n, q)
+        Field data of all responses (standardised).
+    R_d : ndarray of shape (n, n)
+        Discrepancy correlation at the field design.
+    H_d : ndarray of shape (n, p_d)
+        Discrepancy regression matrix.
+    sigma2_d : ndarray of shape (q, q)
+    noise : ndarray of shape (q,)
+    """
+
+    def __init__(self, design, responses, Y_e, R_d, H_d, sigma2_d, noise):
+        self.design = design
+        self.idx = list(responses)
+        idx, n = self.idx, design.n
+        s = len(idx)
+        self.s = s
+        self.sigma2_m, G, b, self.rss_perp, self.log_det_A = design.simulation_block(
+            idx
+        )
+        self.p_m, self.p_d = design.p_m, H_d.shape[1]
+        self.P = (self.p_m + self.p_d) * s
+        pm = self.p_m * s
+        self.GtG = np.zeros((self.P, self.P))
+        self.GtG[:pm, :pm] = G.T @ G
+        self.Gtb = np.zeros(self.P)
+        self.Gtb[:pm] = G.T @ b
+        self.bb = float(b @ b)
+        self.S_fixed = np.kron(sigma2_d[np.ix_(idx, idx)], R_d) + np.kron(
+            np.diag(np.asarray(noise)[idx]), np.eye(n)
+        )
+        self.X_d = np.kron(np.eye(s), H_d)  # (n s, p_d s)
+        self.Y_e = Y_e[:, idx]
+        self.M = (design.N + n) * s
+
+    def log_likelihood(self, pieces):
+        """Log-likelihood at the ``k`` parameter values of ``pieces``.
+
+        Parameters
+        ----------
+        pieces : tuple
+            ``FieldDesignEmulator.pieces(thetas)``.
+
+        Returns
+        -------
+        ndarray of shape (k,)
+            ``-inf`` where ``S(theta)`` is not positive definite.
+        """
+        T, H_me, Mk = pieces
+        idx, s, n = self.idx, self.s, self.design.n
+        k = len(T)
+        S = self.S_fixed + np.einsum("ab,kij->kaibj", self.sigma2_m, T).reshape(
+            k, n * s, n * s
+        )
+        X = np.empty((k, n * s, self.P))
+        pm = self.p_m * s
+        for a in range(s):
+            X[:, a * n : (a + 1) * n, :pm] = 0.0
+            X[:, a * n : (a + 1) * n, a * self.p_m : (a + 1) * self.p_m] = H_me
+        X[:, :, pm:] = self.X_d
+        y = (self.Y_e - Mk[:, :, idx]).transpose(0, 2, 1).reshape(k, n * s)
+        out = np.full(k, -np.inf)
+        ok = np.ones(k, dtype=bool)
+        try:
+            L = np.linalg.cholesky(S)
+        except np.linalg.LinAlgError:
+            L = np.zeros_like(S)
+            for j in range(k):
+                try:
+                    L[j] = np.linalg.cholesky(S[j])
+                except np.linalg.LinAlgError:
+                    ok[j] = False
+        if not ok.any():
+            return out
+        L, S, X, y = L[ok], S[ok], X[ok], y[ok]
+        rhs = np.concatenate([X, y[:, :, None]], axis=2)
+        solved = np.linalg.solve(S, rhs)  # S^-1 [X | y]
+        XtSX = np.einsum("kip,kiq->kpq", X, solved[:, :, :-1])
+        XtSy = np.einsum("kip,ki->kp", X, solved[:, :, -1])
+        ySy = np.einsum("ki,ki->k", y, solved[:, :, -1])
+        info = self.GtG + XtSX
+        c = self.Gtb + XtSy
+        try:
+            L_info = np.linalg.cholesky(info)
+        except np.linalg.LinAlgError:
+            raise FactorizationError(
+                "The global regression matrix H_Y(theta) is rank deficient: use "
+                "lower-order regressions for the model or the discrepancy."
+            ) from None
+        z = np.linalg.solve(L_info, c[:, :, None])[:, :, 0]
+        rss = self.rss_perp + self.bb + ySy - np.einsum("kp,kp->k", z, z)
+        log_det_S = 2.0 * np.sum(np.log(np.diagonal(L, axis1=1, axis2=2)), axis=1)
+        log_det_info = 2.0 * np.sum(
+            np.log(np.diagonal(L_info, axis1=1, axis2=2)), axis=1
+        )
+        out[ok] = -0.5 * (
+            (self.M - self.P) * LOG_2PI
+            + self.log_det_A
+            + log_det_S
+            + log_det_info
+            + rss
+        )
+        return out

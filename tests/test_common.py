@@ -4,7 +4,7 @@ import numpy as np
 from scipy import stats
 from sklearn.utils.estimator_checks import parametrize_with_checks
 
-from skmba import ModularBayesCalibrator, MultiResponseGP
+from skmba import ModularBayesCalibrator, MultiResponseGP, PreposteriorDesigner
 
 
 def scaled_sum_model(X, theta):
@@ -23,6 +23,17 @@ SMALL_CALIBRATOR = ModularBayesCalibrator(
 )
 
 
+# The checks' random X has its last column read as the parameter; a wide
+# prior covers it whatever its values.
+SMALL_DESIGNER = PreposteriorDesigner(
+    [stats.uniform(-100.0, 200.0)],
+    calibrator=ModularBayesCalibrator(n_restarts_optimizer=0),
+    n_design=5,
+    n_mc=2,
+    random_state=0,
+)
+
+
 def expected_failed_checks(estimator):
     if isinstance(estimator, ModularBayesCalibrator):
         return {
@@ -36,7 +47,7 @@ def expected_failed_checks(estimator):
 
 
 @parametrize_with_checks(
-    [MultiResponseGP(), MultiResponseGP(noise=True), SMALL_CALIBRATOR],
+    [MultiResponseGP(), MultiResponseGP(noise=True), SMALL_CALIBRATOR, SMALL_DESIGNER],
     expected_failed_checks=expected_failed_checks,
 )
 def test_sklearn_compatible_estimator(estimator, check):

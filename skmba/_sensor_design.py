@@ -1,0 +1,818 @@
+"""Fast preposterior analysis (FPA): which sensors identify theta best.
+
+Thesis chapter 6 (section 6.2), after Arendt et al. (2016). Before any
+measurement exists, the designer asks: if the field data had the responses
+``S`` (a sensor configuration) at the design ``X_e``, how well would the MBA
+identify ``theta``? It answers by Monte Carlo over everything unknown:
+
+* step 1: fit the module-1 emulator on the simulations, fix the design, and
+  integrate the emulator over the prior of ``theta`` at the design (module 2,
+  Eqs. 4.13-4.17);
+* step 2, for each replicate ``i``: draw ``theta_i`` from its prior, an
+  emulator realisation at ``(X_e, theta_i)``, discrepancy hyperparameters
+  from ``discrepancy_prior`` and a discrepancy realisation, and noise from
+  ``noise_prior``; their sum is synthetic field data ``Y_e``. Module 2
+  estimates the discrepancy hyperparameters from ``Y_e`` (phase 1: once,
+  with all responses, then reused for every subset when ``fast=True``; per
+  subset when ``fast=False``, as in Arendt et al.), and module 3 gives the
+  posterior covariance ``V_i(S)`` of ``theta`` for every subset;
+* step 3: the preposterior covariance ``mean_i V_i(S)`` and its norm
+  (Eq. 6.3), the score of ``S``; lower is better.
+
+Every subset sees the same replicates (common random numbers), so
+differences between subsets are not Monte Carlo noise.
+"""
+
+import time
+import warnings
+from numbers import Integral, Real
+
+import numpy as np
+from joblib import Parallel, delayed
+from scipy import stats
+from sklearn.base import BaseEstimator, clone
+from sklearn.exceptions import ConvergenceWarning
+from sklearn.utils import check_array, check_random_state
+from sklearn.utils.validation import check_is_fitted, validate_data
+from threadpoolctl import threadpool_limits
+
+from skmba._calibration import ModularBayesCalibrator
+from skmba._gp import default_kernel
+from skmba._importance import posterior_moments
+from skmba._posterior import FieldDesignEmulator, SubsetLikelihood
+from skmba._priors import check_prior
+from skmba._regression import regression_basis
+from skmba._search import all_subsets, check_max_size, genetic, greedy_forward
+
+SEARCHES = ("exhaustive", "greedy", "genetic")
+CRITERIA = ("trace", "det", "max_eig")
+PRIOR_UNITS = ("standardised", "user")
+#: Table 6.2 of the thesis, in the standardised units of the simulations:
+#: discrepancy roughness, variance (relative to each response's variance)
+#: and regression coefficients (in response standard deviations).
+DEFAULT_DISCREPANCY_PRIOR = {
+    "roughness": (0.1, 9.0),
+    "variance": (1e-2, 20.0),
+    "mean": (-5.0, 5.0),
+    "correlation": "random",
+}
+#: Table 6.2: observation noise variance relative to each response's variance.
+DEFAULT_NOISE_PRIOR = (0.0, 1e-4)
+DEFAULT_N_DESIGN = 25
+
+
+def _interval(value, name, size, *, lower=None):
+    """``(lo, hi)`` of scalars or of arrays of length ``size``, checked."""
+    try:
+        lo, hi = value
+        lo = np.broadcast_to(np.asarray(lo, dtype=float), (size,)).copy()
+        hi = np.broadcast_to(np.asarray(hi, dtype=float), (size,)).copy()
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"{name} must be a pair (low, high) of numbers or of arrays of length "
+            f"{size}, got {value!r}."
+        ) from None
+    if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
+        raise ValueError(f"{name} must be finite, got {value!r}.")
+    if np.any(lo > hi):
+        raise ValueError(f"{name} needs low <= high, got {value!r}.")
+    if lower is not None and np.any(lo < lower):
+        raise ValueError(f"{name} must be >= {lower}, got {value!r}.")
+    return lo, hi
+
+
+def _criterion(cov, prior_sd, criterion):
+    """Norm of a covariance scaled by the prior's standard deviations."""
+    scaled = cov / np.outer(prior_sd, prior_sd)
+    if criterion == "trace":
+        return float(np.trace(scaled))
+    if criterion == "det":
+        r = len(scaled)
+        return float(max(np.linalg.det(scaled), 0.0) ** (1.0 / r))
+    return float(np.linalg.eigvalsh(scaled)[-1])
+
+
+class _Context:
+    """What every Monte Carlo task needs; shipped once per task by joblib."""
+
+    def __init__(self, designer, calibrator, design, prior, priors):
+        self.calibrator = calibrator
+        self.design = design
+        self.prior = prior
+        self.priors = priors
+        self.fast = designer.fast
+        self.module2_max_iter = designer.module2_max_iter
+        self.Xs = design.X_e
+        self.n, self.q = design.n, design.q
+        self.nodes = self.pieces = self.weights = None
+        self.mean_bar = self.V_bar = None
+        self.kernel_d = None
+
+    def std_theta(self, theta):
+        return self.calibrator._std_theta(theta)
+
+
+class _Replicate:
+    """One Monte Carlo replicate: the draws, the data and module 2."""
+
+    def __init__(self, theta, Y_e, seed):
+        self.theta, self.Y_e, self.seed = theta, Y_e, seed
+        self.kernel_d = self.sigma2_d = self.noise = None
+        self.truth = None
+        self.n_unconverged = 0
+
+
+def _seed(sequence):
+    return int(sequence.generate_state(1)[0])
+
+
+def _mask(subset):
+    """A subset as the integer whose bits are its responses."""
+    return sum(1 << int(a) for a in subset)
+
+
+def _draw_replicate(ctx, sequence):
+    """Step 2a (and 2b in phase 1): synthetic field data and module 2."""
+    rng = np.random.default_rng(sequence)
+    cal, p = ctx.calibrator, ctx.priors
+    n, q = ctx.n, ctx.q
+    theta = ctx.prior.rvs(1, random_state=rng)[0]
+    Z = np.hstack([ctx.Xs, np.tile(ctx.std_theta(theta), (n, 1))])
+    Y_m = cal.model_gp_.sample_y(
+        Z, 1, random_state=np.random.RandomState(_seed(sequence))
+    ).reshape(n, q)
+    # Discrepancy hyperparameters and realisation.
+    roughness = rng.uniform(*p["roughness"])
+    R_d = clone(ctx.kernel_d).set_params(roughness=roughness)(ctx.Xs)
+    sd = np.sqrt(rng.uniform(*p["variance"]))
+    corr = p["correlation"]
+    if isinstance(corr, str) and corr == "random":
+        corr = np.atleast_2d(
+            stats.wishart(df=q + 1, scale=np.eye(q)).rvs(random_state=rng)
+        )
+        d = np.sqrt(np.diag(corr))
+        corr = corr / np.outer(d, d)
+    sigma2_d = corr * np.outer(sd, sd)
+    H_d = regression_basis(ctx.Xs, cal.discrepancy_regression)
+    beta = rng.uniform(*p["mean"], size=(H_d.shape[1], q))  # per response
+
+    def root(A):
+        values, vectors = np.linalg.eigh(0.5 * (A + A.T))
+        return vectors * np.sqrt(np.clip(values, 0.0, None))
+
+    delta = H_d @ beta + root(R_d) @ rng.standard_normal((n, q)) @ root(sigma2_d).T
+    noise = rng.uniform(*p["noise"])
+    eps = rng.standard_normal((n, q)) * np.sqrt(noise)
+    rep = _Replicate(theta, Y_m + delta + eps, _seed(sequence))
+    rep.truth = (roughness, sigma2_d, noise)
+    if ctx.fast:
+        disc = _module2(ctx, rep, range(q))
+        rep.kernel_d, rep.sigma2_d, rep.noise = disc.kernel_, disc.sigma2, disc.noise
+    return rep
+
+
+def _module2(ctx, rep, responses):
+    """Discrepancy and noise of the responses by maximum likelihood."""
+    idx = list(responses)
+    n = ctx.n
+    rows = np.concatenate([np.arange(a * n, (a + 1) * n) for a in idx])
+    residual = (rep.Y_e - ctx.mean_bar)[:, idx]
+    seed = _seed(np.random.SeedSequence([rep.seed, 1, _mask(idx)]))
+    roughness, sigma2_d, noise = rep.truth
+
+    def start(fit):
+        # The hyperparameters that generated the replicate: the natural
+        # first start of the search for their maximum-likelihood estimate.
+        kernel = clone(ctx.kernel_d).set_params(roughness=roughness)
+        S = sigma2_d[np.ix_(idx, idx)]
+        L = np.linalg.cholesky(
+            S + 1e-8 * np.diag(np.diag(S)) + 1e-12 * np.eye(len(idx))
+        )
+        return fit.pack(kernel.theta, np.maximum(noise[idx], 1e-300), L)
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", ConvergenceWarning)
+        disc = ctx.calibrator._fit_discrepancy(
+            ctx.Xs,
+            residual,
+            ctx.V_bar[np.ix_(rows, rows)],
+            seed,
+            start=start,
+            max_iter=ctx.module2_max_iter,
+        )
+    rep.n_unconverged += sum(issubclass(w.category, ConvergenceWarning) for w in caught)
+    return disc
+
+
+def _posterior_block(ctx, replicates, subsets):
+    """Step 2b-2c for some replicates and subsets: posterior moments."""
+    r = ctx.prior.dim
+    means = np.empty((len(replicates), len(subsets), r))
+    covs = np.empty((len(replicates), len(subsets), r, r))
+    design, cal = ctx.design, ctx.calibrator
+    for i, rep in enumerate(replicates):
+        for j, subset in enumerate(subsets):
+            if ctx.fast:
+                kernel_d, sigma2_d, noise = rep.kernel_d, rep.sigma2_d, rep.noise
+                idx = list(subset)
+            else:
+                disc = _module2(ctx, rep, subset)
+                kernel_d, sigma2_d, noise = disc.kernel_, disc.sigma2, disc.noise
+                # The fit is of the subset alone: embed it in q x q arrays.
+                full = np.zeros((ctx.q, ctx.q))
+                full[np.ix_(subset, subset)] = sigma2_d
+                noise_full = np.ones(ctx.q)
+                noise_full[list(subset)] = noise
+                sigma2_d, noise = full, noise_full
+                idx = list(subset)
+            H_d = regression_basis(ctx.Xs, cal.discrepancy_regression)
+            like = SubsetLikelihood(
+                design, idx, rep.Y_e, kernel_d(ctx.Xs), H_d, sigma2_d, noise
+            )
+
+            def log_likelihood(thetas, like=like):
+                return like.log_likelihood(design.pieces(ctx.std_theta(thetas)))
+
+            seed = _seed(np.random.SeedSequence([rep.seed, 2, _mask(subset)]))
+            means[i, j], covs[i, j] = posterior_moments(
+                log_likelihood,
+                ctx.prior,
+                ctx.nodes,
+                ctx.weights,
+                like.log_likelihood(ctx.pieces),
+                seed=seed,
+            )
+    return means, covs
+
+
+class PreposteriorDesigner(BaseEstimator):
+    """Choose the sensors that identify the calibration parameters best.
+
+    The fast preposterior analysis (FPA) of thesis chapter 6, after Arendt
+    et al. (2016): from simulations only, before measuring, it scores each
+    subset ``S`` of the ``q`` simulated responses by the expected posterior
+    covariance of ``theta`` that the modular Bayesian approach
+    (:class:`~skmba.ModularBayesCalibrator`) would reach with field data of
+    those responses,
+
+        score(S) = || mean_i V[theta | Y_e^(i)(S), D_m] ||      (Eq. 6.3)
+
+    over Monte Carlo replicates ``i`` of synthetic field data drawn from the
+    priors of ``theta``, the discrepancy and the noise. Lower is better.
+
+    Parameters
+    ----------
+    prior : list of frozen scipy.stats distributions, frozen \
+            multivariate_normal or object with ``logpdf``/``rvs``, default=None
+        Prior of the ``r`` calibration parameters, the last ``r`` columns of
+        ``X`` in :meth:`fit`. None takes the ``calibrator``'s prior.
+    calibrator : ModularBayesCalibrator, default=None
+        Template of the MBA settings used (model and discrepancy kernels and
+        regressions, ``module2_variance``, ``emulator_alpha``,
+        ``n_restarts_optimizer``, ``discrepancy_optimizer``,
+        ``n_integration_nodes``, ``noise``). It is cloned, never fitted.
+        None means ``ModularBayesCalibrator()``. The discrepancy kernel must
+        have a ``roughness`` hyperparameter (the kernels of
+        :mod:`skmba.kernels`), which ``discrepancy_prior`` draws.
+    discrepancy_prior : dict, default=None
+        Uniform priors of the discrepancy GP, in the standardised units of the
+        simulations (inputs and responses centred and scaled to unit
+        variance), as in thesis Table 6.2 (the default)::
+
+            {"roughness": (0.1, 9.0),      # per design variable
+             "variance": (1e-2, 20.0),     # diagonal of Sigma_d, per response
+             "mean": (-5.0, 5.0),          # regression coefficients
+             "correlation": "random"}
+
+        Each interval is ``(low, high)`` of scalars or of arrays (one value per
+        design variable for ``roughness``, per response for ``variance``),
+        e.g. ``{"variance": (0.01, [20, 20, 0.1, 20, 20])}`` lowers the
+        largest discrepancy variance of the third response (section 6.3).
+        ``correlation`` is ``"random"`` (a Wishart matrix with ``q + 1``
+        degrees of freedom scaled to unit diagonal, so that each correlation
+        is uniform on ``(-1, 1)``), ``"independent"``, or a number ``rho``
+        (equal correlation between every pair of responses). Missing keys take
+        the defaults.
+    noise_prior : (low, high), default=None
+        Uniform prior of each response's noise variance, relative to the
+        response's variance in the simulations (scalars or arrays of length
+        ``q``). None means ``(0, 1e-4)`` (Table 6.2).
+    X_design : array-like of shape (n, d), default=None
+        The planned field inputs (design variables). It must lie inside the
+        range of the simulations.
+    n_design : int, default=None
+        When ``X_design`` is None, a Latin hypercube of ``n_design`` points
+        over the range of the simulated design variables (None means 25, as
+        in section 6.3).
+    n_mc : int, default=100
+        Monte Carlo replicates (100 in section 6.4; ``convergence_`` shows
+        whether that is enough).
+    search : {"exhaustive", "greedy", "genetic"}, default="exhaustive"
+        ``"exhaustive"`` scores all ``2^q - 1`` subsets (of at most
+        ``max_responses`` responses); ``"greedy"`` forward selection scores
+        ``q + (q - 1) + ...`` subsets; ``"genetic"`` runs a binary genetic
+        algorithm (``population_size``, ``n_generations``). Every search also
+        scores the ``q`` single responses, for ``ranking_``.
+    max_responses : int, default=None
+        Largest number of sensors in a subset (None: all ``q``).
+    criterion : {"trace", "det", "max_eig"}, default="trace"
+        Norm of the preposterior covariance after scaling each parameter by
+        its prior standard deviation, so that parameters of different units
+        are comparable and a score of 1 means "no better than the prior":
+        the trace (sum of variance ratios), the determinant to the power
+        ``1/r`` (geometric mean) or the largest eigenvalue. For one parameter
+        all three are the posterior-to-prior variance ratio.
+    fast : bool, default=True
+        Estimate the discrepancy hyperparameters once per replicate with all
+        responses and reuse them, restricted, for every subset (phase 1 /
+        phase 2 of section 6.2.2). False re-estimates them for every subset
+        and replicate (Arendt et al.), much slower.
+    n_jobs : int, default=None
+        Monte Carlo replicates run in parallel through joblib, so that
+        ``joblib.parallel_config(backend="dask")`` runs them on a Dask
+        cluster.
+    random_state : int, RandomState instance or None, default=None
+        Seeds are derived per replicate, so results do not depend on
+        ``n_jobs``.
+    population_size : int, default=20
+        Genetic search only.
+    n_generations : int, default=20
+        Genetic search only (it also stops after 5 generations without
+        improvement).
+    verbose : int, default=0
+        Print the progress of the Monte Carlo loop and of the search.
+    prior_units : {"standardised", "user"}, default="standardised"
+        Units of the ``variance`` and ``mean`` of ``discrepancy_prior`` and of
+        ``noise_prior``. ``"standardised"``: relative to each response's
+        spread in the simulations (variances as fractions of the response's
+        variance), so that the same prior means the same *relative*
+        discrepancy for every sensor. ``"user"``: in the units of ``y``
+        (squared for variances), e.g. "up to 0.5 mm of discrepancy on every
+        displacement gauge". The roughness is always in standardised inputs.
+    module2_max_iter : int or None, default=200
+        Largest number of L-BFGS-B iterations of each module-2 fit (phase 1,
+        or every subset with ``fast=False``). Each fit starts from the
+        hyperparameters that generated its replicate, the natural guess of
+        their estimate; with many correlated responses the likelihood is
+        badly scaled and full convergence can take thousands of evaluations
+        for a small gain. None runs to convergence (slower, measured in
+        ``benchmarks/bench_sensor_design.py``).
+
+    Attributes
+    ----------
+    subsets_ : list of tuple
+        The scored response subsets (0-based indices), smallest first.
+    preposterior_cov_ : ndarray of shape (n_subsets, r, r)
+        Mean posterior covariance of ``theta`` over the replicates, in user
+        units, for each subset.
+    scores_ : ndarray of shape (n_subsets,)
+        The criterion of each subset; lower is better.
+    best_subset_ : tuple
+        The subset with the lowest score.
+    support_ : ndarray of shape (q,), dtype=bool
+        Mask of ``best_subset_`` over the responses.
+    ranking_ : ndarray of shape (q,)
+        Rank of each response scored alone (1 = the most informative single
+        sensor).
+    convergence_ : ndarray of shape (n_mc, n_subsets)
+        Running criterion of each subset after 1, 2, ..., ``n_mc``
+        replicates (thesis Fig. 6.5).
+    expected_error_ : ndarray of shape (n_subsets, r)
+        Root mean square, over the replicates, of the posterior mean minus the
+        ``theta`` that generated the data: the expected identification error
+        (bias and spread) of each subset, in user units.
+    theta_draws_ : ndarray of shape (n_mc, r)
+        The replicates' ``theta``.
+    X_design_ : ndarray of shape (n, d)
+    model_gp_ : MultiResponseGP
+        The module-1 emulator (standardised units).
+    prior_ : skmba prior object
+    n_responses_ : int
+    n_features_in_ : int
+
+    See Also
+    --------
+    ModularBayesCalibrator : the MBA whose identifiability is predicted.
+
+    Notes
+    -----
+    Phase 2 restricts the phase-1 discrepancy covariance and noise to the
+    subset, which is what the multi-response GP implies for a subset of its
+    responses. The posterior moments of ``theta`` come from the module-3
+    likelihood (Eq. 4.30, regression coefficients integrated out) by
+    quadrature over the prior, refined by Gaussian importance quadrature
+    where the posterior is narrow (:mod:`skmba._importance`); the
+    likelihood of all subsets shares the emulator terms at each ``theta``.
+    The run time grows as ``n_mc`` times the number of subsets: bound it with
+    ``n_mc``, ``max_responses`` or ``search="greedy"``.
+
+    References
+    ----------
+    Arendt, Apley, Chen (2016), A preposterior analysis to predict
+    identifiability in the experimental calibration of computer models, IIE
+    Transactions 48(1). Thesis chapter 6.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skmba import ModularBayesCalibrator, PreposteriorDesigner
+    >>> from skmba.datasets import make_cantilever
+    >>> data = make_cantilever(
+    ...     30, responses=("tip_displacement", "mid_displacement"), random_state=0
+    ... )
+    >>> X = np.hstack([data.X_sim, data.theta_sim])
+    >>> designer = PreposteriorDesigner(
+    ...     data.prior,
+    ...     calibrator=ModularBayesCalibrator(n_restarts_optimizer=0),
+    ...     n_design=8,
+    ...     n_mc=4,
+    ...     random_state=0,
+    ... ).fit(X, data.y_sim)
+    >>> designer.subsets_
+    [(0,), (1,), (0, 1)]
+    >>> designer.preposterior_cov_.shape
+    (3, 1, 1)
+    """
+
+    def __init__(
+        self,
+        prior=None,
+        *,
+        calibrator=None,
+        discrepancy_prior=None,
+        noise_prior=None,
+        X_design=None,
+        n_design=None,
+        n_mc=100,
+        search="exhaustive",
+        max_responses=None,
+        criterion="trace",
+        fast=True,
+        n_jobs=None,
+        random_state=None,
+        population_size=20,
+        n_generations=20,
+        verbose=0,
+        prior_units="standardised",
+        module2_max_iter=200,
+    ):
+        self.prior = prior
+        self.calibrator = calibrator
+        self.discrepancy_prior = discrepancy_prior
+        self.noise_prior = noise_prior
+        self.X_design = X_design
+        self.n_design = n_design
+        self.n_mc = n_mc
+        self.search = search
+        self.max_responses = max_responses
+        self.criterion = criterion
+        self.fast = fast
+        self.n_jobs = n_jobs
+        self.random_state = random_state
+        self.population_size = population_size
+        self.n_generations = n_generations
+        self.verbose = verbose
+        self.prior_units = prior_units
+        self.module2_max_iter = module2_max_iter
+
+    # ------------------------------------------------------------ checks
+    def _check_params(self):
+        for name, value, allowed in (
+            ("search", self.search, SEARCHES),
+            ("criterion", self.criterion, CRITERIA),
+        ):
+            if not isinstance(value, str) or value not in allowed:
+                raise ValueError(
+                    f"{name}={value!r} is not supported; use one of {allowed}."
+                )
+        if self.module2_max_iter is not None and (
+            isinstance(self.module2_max_iter, bool)
+            or not isinstance(self.module2_max_iter, Integral)
+            or self.module2_max_iter < 1
+        ):
+            raise ValueError(
+                "module2_max_iter must be a positive integer or None, got "
+                f"{self.module2_max_iter!r}."
+            )
+        for name, minimum in (
+            ("n_mc", 1),
+            ("population_size", 2),
+            ("n_generations", 1),
+            ("verbose", 0),
+        ):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, Integral):
+                raise TypeError(f"{name} must be an int, got {value!r}.")
+            if value < minimum:
+                raise ValueError(f"{name} must be >= {minimum}, got {value}.")
+        if self.n_design is not None and (
+            isinstance(self.n_design, bool)
+            or not isinstance(self.n_design, Integral)
+            or self.n_design < 2
+        ):
+            raise ValueError(
+                f"n_design must be an integer >= 2 or None, got {self.n_design!r}."
+            )
+        if not isinstance(self.fast, bool | np.bool_):
+            raise TypeError(f"fast must be True or False, got {self.fast!r}.")
+        if self.calibrator is not None and not isinstance(
+            self.calibrator, ModularBayesCalibrator
+        ):
+            raise TypeError(
+                "calibrator must be a ModularBayesCalibrator (a template of the "
+                f"MBA settings) or None, got {type(self.calibrator).__name__}."
+            )
+
+    def _check_priors(self, d, q, y_scale):
+        given = {} if self.discrepancy_prior is None else self.discrepancy_prior
+        if not isinstance(given, dict):
+            raise TypeError(
+                "discrepancy_prior must be a dict with keys among "
+                f"{sorted(DEFAULT_DISCREPANCY_PRIOR)}, got {type(given).__name__}."
+            )
+        unknown = set(given) - set(DEFAULT_DISCREPANCY_PRIOR)
+        if unknown:
+            raise ValueError(
+                f"discrepancy_prior has unknown keys {sorted(unknown)}; use "
+                f"{sorted(DEFAULT_DISCREPANCY_PRIOR)}."
+            )
+        spec = {**DEFAULT_DISCREPANCY_PRIOR, **given}
+        out = {
+            "roughness": _interval(
+                spec["roughness"], "discrepancy_prior['roughness']", d, lower=0.0
+            ),
+            "variance": _interval(
+                spec["variance"], "discrepancy_prior['variance']", q, lower=0.0
+            ),
+            "mean": _interval(spec["mean"], "discrepancy_prior['mean']", q),
+            "noise": _interval(
+                DEFAULT_NOISE_PRIOR if self.noise_prior is None else self.noise_prior,
+                "noise_prior",
+                q,
+                lower=0.0,
+            ),
+        }
+        if np.any(out["roughness"][0] <= 0):
+            raise ValueError("discrepancy_prior['roughness'] must be > 0.")
+        corr = spec["correlation"]
+        if isinstance(corr, str):
+            if corr not in ("random", "independent"):
+                raise ValueError(
+                    "discrepancy_prior['correlation'] must be 'random', "
+                    f"'independent' or a number in (-1/(q-1), 1), got {corr!r}."
+                )
+            if corr == "independent":
+                corr = np.eye(q)
+        elif isinstance(corr, Real):
+            low = -1.0 / (q - 1) if q > 1 else -1.0
+            if not low < corr < 1.0:
+                raise ValueError(
+                    f"discrepancy_prior['correlation']={corr} gives a matrix that "
+                    f"is not positive definite; use a number in ({low:.3g}, 1)."
+                )
+            corr = np.full((q, q), float(corr))
+            np.fill_diagonal(corr, 1.0)
+        else:
+            raise TypeError(
+                "discrepancy_prior['correlation'] must be 'random', 'independent' "
+                f"or a number, got {corr!r}."
+            )
+        out["correlation"] = corr
+        if self.prior_units == "user":
+            # Response units -> the standardised units used internally.
+            for key, power in (("variance", 2), ("noise", 2), ("mean", 1)):
+                lo, hi = out[key]
+                out[key] = (lo / y_scale**power, hi / y_scale**power)
+        return out
+
+    # -------------------------------------------------------------- fit
+    def fit(self, X, y):
+        """Run the fast preposterior analysis.
+
+        Parameters
+        ----------
+        X : array-like of shape (N, d + r)
+            Simulation inputs: the ``d`` design variables, then the ``r``
+            calibration parameters (the last ``r`` columns).
+        y : array-like of shape (N,) or (N, q)
+            Simulated responses. No field data is needed.
+
+        Returns
+        -------
+        self
+        """
+        with threadpool_limits(limits=1, user_api="blas"):
+            return self._fit(X, y)
+
+    def _fit(self, X, y):
+        started = time.perf_counter()
+        self._check_params()
+        X, y = validate_data(self, X, y, multi_output=True, y_numeric=True)
+        X = X.astype(float)
+        Y = np.asarray(y, dtype=float).reshape(len(X), -1)
+        N, q = Y.shape
+        prior = self.prior
+        if prior is None and self.calibrator is not None:
+            prior = self.calibrator.prior
+        if prior is None:
+            raise ValueError(
+                "prior is required: pass the prior of the calibration parameters, "
+                "e.g. prior=[scipy.stats.uniform(lo, hi - lo)]."
+            )
+        self.prior_ = check_prior(prior)
+        r = self.prior_.dim
+        d = X.shape[1] - r
+        if d < 1:
+            raise ValueError(
+                f"X has {X.shape[1]} columns (n_features={X.shape[1]}) but the "
+                f"prior has {r} parameters: X "
+                "must hold the design variables first and the r calibration "
+                "parameters as its last r columns."
+            )
+        if N < 2 * (d + r) + 1:
+            raise ValueError(
+                f"{N} simulations (n_samples={N}) are too few for {d + r} inputs: "
+                "the emulator "
+                f"needs at least {2 * (d + r) + 1}, and about {10 * (d + r)} "
+                "are recommended."
+            )
+        max_size = check_max_size(self.max_responses, q)
+        priors = None  # checked below, once the response scales are known
+        rng = check_random_state(self.random_state)
+        seeds = rng.randint(2**31 - 1, size=4)
+
+        cal = clone(
+            ModularBayesCalibrator() if self.calibrator is None else self.calibrator
+        )
+        cal.set_params(prior=None, simulator=None, n_jobs=self.n_jobs)
+        cal._check_params()
+        cal.prior_ = self.prior_
+        X_sim, theta_sim = X[:, :d], X[:, d:]
+        lo, hi = X_sim.min(axis=0), X_sim.max(axis=0)
+        support = self.prior_.bounds(0.999)
+        if np.any(theta_sim.max(axis=0) < support[:, 0]) or np.any(
+            theta_sim.min(axis=0) > support[:, 1]
+        ):
+            raise ValueError(
+                "The simulated parameters (last r columns of X) do not overlap the "
+                "prior's support: simulate over the prior's range."
+            )
+
+        # Step 1: emulator, design, priors, prior-integrated emulator.
+        if self.prior_units not in PRIOR_UNITS:
+            raise ValueError(
+                f"prior_units={self.prior_units!r} is not supported; use one of "
+                f"{PRIOR_UNITS}."
+            )
+        Z_sim, Ys_sim = cal._fit_emulator(X_sim, theta_sim, Y, seeds[0])
+        priors = self._check_priors(d, q, cal.y_scale_)
+        if self.X_design is not None:
+            X_design = check_array(self.X_design, input_name="X_design")
+            if X_design.shape[1] != d:
+                raise ValueError(
+                    f"X_design has {X_design.shape[1]} columns but the simulations "
+                    f"have {d} design variables."
+                )
+            tol = 1e-9 * np.maximum(hi - lo, 1.0)
+            if np.any(X_design < lo - tol) or np.any(X_design > hi + tol):
+                raise ValueError(
+                    "X_design lies outside the range of the simulated design "
+                    f"variables [{lo.tolist()}, {hi.tolist()}]: the emulator would "
+                    "extrapolate. Keep X_design inside it or extend the simulations."
+                )
+        else:
+            n_design = DEFAULT_N_DESIGN if self.n_design is None else self.n_design
+            u = stats.qmc.LatinHypercube(d=d, seed=seeds[2]).random(n_design)
+            X_design = lo + (hi - lo) * u
+        self.X_design_ = X_design
+        Xs = cal._std_x(X_design)
+        state = cal.model_gp_._fit_state
+        design = FieldDesignEmulator(
+            state, Z_sim, Ys_sim, cal.model_gp_.kernel_, cal.regression, Xs
+        )
+        ctx = _Context(self, cal, design, self.prior_, priors)
+        ctx.mean_bar, ctx.V_bar = cal._integrated_emulator(Xs, seeds[1])
+        kernel_d = (
+            default_kernel(Xs)
+            if cal.discrepancy_kernel is None
+            else clone(cal.discrepancy_kernel)
+        )
+        if "roughness" not in kernel_d.get_params():
+            raise TypeError(
+                "The calibrator's discrepancy_kernel has no 'roughness' "
+                "hyperparameter for discrepancy_prior to draw: use a kernel of "
+                "skmba.kernels (e.g. Gauss())."
+            )
+        ctx.kernel_d = kernel_d
+        n_nodes = 33 if r == 1 else 64
+        ctx.nodes, ctx.weights = self.prior_.integration_nodes(
+            n_nodes, random_state=seeds[3]
+        )
+        ctx.pieces = design.pieces(ctx.std_theta(ctx.nodes))
+        self.model_gp_ = cal.model_gp_
+        self.n_responses_ = q
+        self._prior_sd = np.sqrt(np.diag(self.prior_.cov()))
+        self._log("step 1: emulator and prior-integrated emulator", started)
+
+        # Step 2, phase 1: replicates and (fast) their discrepancy estimates.
+        sequences = np.random.SeedSequence(int(seeds[3])).spawn(self.n_mc)
+        parallel = Parallel(n_jobs=self.n_jobs)
+        replicates = parallel(delayed(_draw_replicate)(ctx, s) for s in sequences)
+        self.theta_draws_ = np.array([rep.theta for rep in replicates])
+        self._log(f"phase 1: {self.n_mc} replicates", started)
+
+        # Phase 2: posterior moments for the subsets the search asks for.
+        results = {}
+        n_tasks = max(1, min(self.n_mc, 4 * abs(parallel.n_jobs or 1)))
+        blocks = np.array_split(np.arange(self.n_mc), n_tasks)
+
+        def score(subsets):
+            subsets = [tuple(s) for s in subsets]
+            new = [s for s in dict.fromkeys(subsets) if s not in results]
+            if new:
+                parts = parallel(
+                    delayed(_posterior_block)(ctx, [replicates[i] for i in block], new)
+                    for block in blocks
+                    if len(block)
+                )
+                means = np.concatenate([p[0] for p in parts])
+                covs = np.concatenate([p[1] for p in parts])
+                for j, s in enumerate(new):
+                    results[s] = (means[:, j], covs[:, j])
+                self._log(f"scored {len(results)} subsets", started)
+            return [self._score(results[s][1].mean(axis=0)) for s in subsets]
+
+        singletons = [(j,) for j in range(q)]
+        score(singletons)
+        if self.search == "exhaustive":
+            score(all_subsets(q, max_size))
+        elif self.search == "greedy":
+            greedy_forward(score, q, max_size)
+        else:
+            genetic(
+                score,
+                q,
+                max_size,
+                population_size=self.population_size,
+                n_generations=self.n_generations,
+                random_state=seeds[2],
+            )
+
+        # Step 3: preposterior covariance and its norm.
+        self.subsets_ = sorted(results, key=lambda s: (len(s), s))
+        covs = np.array([results[s][1] for s in self.subsets_])  # (S, n_mc, r, r)
+        means = np.array([results[s][0] for s in self.subsets_])
+        self.preposterior_cov_ = covs.mean(axis=1)
+        self.scores_ = np.array([self._score(c) for c in self.preposterior_cov_])
+        running = np.cumsum(covs, axis=1) / np.arange(1, self.n_mc + 1)[:, None, None]
+        self.convergence_ = np.array(
+            [[self._score(c) for c in per_subset] for per_subset in running]
+        ).T
+        error = means - self.theta_draws_[None]
+        self.expected_error_ = np.sqrt(np.mean(error**2, axis=1))
+        self.best_subset_ = self.subsets_[int(np.argmin(self.scores_))]
+        self.support_ = np.zeros(q, dtype=bool)
+        self.support_[list(self.best_subset_)] = True
+        single = np.array([self._score(results[s][1].mean(axis=0)) for s in singletons])
+        self.ranking_ = stats.rankdata(single, method="min").astype(int)
+        unconverged = sum(rep.n_unconverged for rep in replicates)
+        if unconverged:
+            warnings.warn(
+                f"{unconverged} module-2 likelihood maximisations of the "
+                f"{self.n_mc} replicates did not fully converge; their estimates "
+                "are used as they are. More restarts (calibrator "
+                "n_restarts_optimizer) make them more robust.",
+                ConvergenceWarning,
+                stacklevel=2,
+            )
+        self._log(f"done: best subset {self.best_subset_}", started)
+        return self
+
+    def _score(self, cov):
+        return _criterion(cov, self._prior_sd, self.criterion)
+
+    def _log(self, message, started):
+        if self.verbose:
+            elapsed = time.perf_counter() - started
+            print(f"[PreposteriorDesigner] {message} ({elapsed:.1f} s)")
+
+    def score_subset(self, subset):
+        """The criterion of a scored subset (lower is better).
+
+        Parameters
+        ----------
+        subset : sequence of int
+            0-based response indices.
+
+        Returns
+        -------
+        float
+        """
+        check_is_fitted(self, "scores_")
+        key = tuple(sorted(int(i) for i in subset))
+        if key not in self.subsets_:
+            raise ValueError(
+                f"subset {key} was not scored; the search scored {len(self.subsets_)} "
+                "subsets (see subsets_). Use search='exhaustive' to score all."
+            )
+        return float(self.scores_[self.subsets_.index(key)])

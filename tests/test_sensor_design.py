@@ -1,0 +1,288 @@
+"""PreposteriorDesigner: the fast preposterior analysis of thesis chapter 6."""
+
+import pickle
+import warnings
+
+import joblib
+import numpy as np
+import pytest
+from scipy import stats
+from sklearn.base import clone
+from sklearn.gaussian_process.kernels import RBF
+
+from skmba import ModularBayesCalibrator, PreposteriorDesigner
+from skmba.datasets import make_cantilever
+
+FAST_CAL = ModularBayesCalibrator(n_restarts_optimizer=0)
+
+
+@pytest.fixture(scope="module")
+def cantilever():
+    """Table 6.1 responses (A tip, B energy, C rotation, D mid, E quarter)."""
+    data = make_cantilever(54, responses="all", random_state=1)
+    return data, np.hstack([data.X_sim, data.theta_sim])
+
+
+@pytest.fixture(scope="module")
+def small():
+    """Three responses, few replicates: for the exactness checks."""
+    data = make_cantilever(
+        30,
+        responses=("tip_displacement", "energy", "mid_displacement"),
+        random_state=0,
+    )
+    return data, np.hstack([data.X_sim, data.theta_sim])
+
+
+def designer(prior, **params):
+    params = {"calibrator": FAST_CAL, "n_design": 8, "n_mc": 6, **params}
+    params.setdefault("random_state", 0)
+    return PreposteriorDesigner(prior, **params)
+
+
+@pytest.fixture(scope="module")
+def exhaustive(small):
+    data, X = small
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return designer(data.prior).fit(X, data.y_sim)
+
+
+def test_fitted_attributes_are_consistent(exhaustive):
+    d = exhaustive
+    assert d.subsets_ == [(0,), (1,), (2,), (0, 1), (0, 2), (1, 2), (0, 1, 2)]
+    assert d.preposterior_cov_.shape == (7, 1, 1)
+    prior_var = d.prior_.cov()[0, 0]
+    # For one parameter every criterion is the posterior-to-prior variance ratio.
+    np.testing.assert_allclose(d.scores_, d.preposterior_cov_[:, 0, 0] / prior_var)
+    assert np.all((d.scores_ > 0) & (d.scores_ < 1.05))
+    np.testing.assert_allclose(d.convergence_[-1], d.scores_)
+    assert d.convergence_.shape == (6, 7)
+    assert d.best_subset_ == d.subsets_[int(np.argmin(d.scores_))]
+    assert d.support_.tolist() == [i in d.best_subset_ for i in range(3)]
+    singles = d.scores_[:3]
+    assert d.ranking_.tolist() == list(stats.rankdata(singles, method="min"))
+    assert d.expected_error_.shape == (7, 1)
+    assert d.theta_draws_.shape == (6, 1)
+    lo, hi = d.prior_.bounds()[0]
+    assert np.all((d.theta_draws_ >= lo) & (d.theta_draws_ <= hi))
+    assert d.X_design_.shape == (8, 1)
+    # More sensors, on average, identify theta better.
+    assert d.scores_[-1] <= singles.min() + 1e-12
+
+
+def test_criteria_are_norms_of_the_same_covariance(small):
+    """r = 2: trace, det^(1/r) and max eigenvalue of the prior-scaled covariance."""
+    data = make_cantilever(
+        40,
+        responses=("tip_displacement", "energy"),
+        parameters=("E", "I"),
+        random_state=0,
+    )
+    X = np.hstack([data.X_sim, data.theta_sim])
+    scores = {}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for criterion in ("trace", "det", "max_eig"):
+            d = designer(data.prior, criterion=criterion, n_mc=3).fit(X, data.y_sim)
+            scores[criterion] = d.scores_
+    sd = np.sqrt(np.diag(d.prior_.cov()))
+    scaled = d.preposterior_cov_ / np.outer(sd, sd)
+    np.testing.assert_allclose(scores["trace"], np.trace(scaled, axis1=1, axis2=2))
+    np.testing.assert_allclose(
+        scores["det"], np.sqrt(np.linalg.det(scaled)), rtol=1e-10
+    )
+    np.testing.assert_allclose(scores["max_eig"], np.linalg.eigvalsh(scaled)[:, -1])
+
+
+def test_same_random_state_same_result_for_any_n_jobs(small, exhaustive):
+    data, X = small
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for n_jobs in (2, -1):
+            other = designer(data.prior, n_jobs=n_jobs).fit(X, data.y_sim)
+            np.testing.assert_array_equal(other.scores_, exhaustive.scores_)
+            np.testing.assert_array_equal(other.theta_draws_, exhaustive.theta_draws_)
+
+
+def test_fast_and_full_rankings_agree(small, exhaustive):
+    """Phase-1 reuse against per-subset re-estimation (Arendt et al.)."""
+    data, X = small
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        full = designer(data.prior, fast=False).fit(X, data.y_sim)
+    assert full.subsets_ == exhaustive.subsets_
+    rho = stats.spearmanr(full.scores_, exhaustive.scores_).statistic
+    assert rho >= 0.8, rho
+
+
+def test_greedy_and_genetic_find_the_exhaustive_optimum(cantilever):
+    data, X = cantilever
+    found = {}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for search in ("exhaustive", "greedy", "genetic"):
+            d = designer(
+                data.prior,
+                search=search,
+                max_responses=2,
+                n_mc=8,
+                n_design=10,
+                **_table_6_2_on_a_common_scale(data),
+            ).fit(X, data.y_sim)
+            found[search] = (d.best_subset_, len(d.subsets_))
+            assert max(len(s) for s in d.subsets_) <= 2
+    assert found["greedy"][0] == found["exhaustive"][0]
+    assert found["genetic"][0] == found["exhaustive"][0]
+    assert found["exhaustive"][1] == 15
+    assert found["greedy"][1] == 5 + 4
+
+
+def _table_6_2_on_a_common_scale(data, informative=False):
+    """Table 6.2 on the scale of the tip displacement, shared by all sensors.
+
+    The thesis' ranking (tip displacement more informative than the mid- and
+    quarter-span ones) needs the discrepancy prior on one scale for all
+    responses: in the model every displacement is F/(EI) times a constant,
+    so with priors relative to each response's own spread the three are
+    equivalent. The informative prior of section 6.3 lowers the largest
+    discrepancy variance of the rotation (C) to 0.1 of its own variance.
+    """
+    sd = data.y_sim.std(axis=0)
+    high = np.full(5, 20.0 * sd[0] ** 2)
+    if informative:
+        high[2] = 0.1 * sd[2] ** 2
+    return {
+        "discrepancy_prior": {
+            "variance": (0.01 * np.minimum(sd[0] ** 2, high), high),
+            "mean": (-5.0 * sd[0], 5.0 * sd[0]),
+        },
+        "noise_prior": (0.0, 1e-4 * sd[0] ** 2),
+        "prior_units": "user",
+    }
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_cantilever_ranking_of_section_6_3(seed):
+    """Figs. 6.3-6.4: A beats D and E; an informative prior lifts C."""
+    data = make_cantilever(54, responses="all", random_state=seed)
+    X = np.hstack([data.X_sim, data.theta_sim])
+    ranks = {}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for informative in (False, True):
+            d = designer(
+                data.prior,
+                max_responses=1,
+                n_design=25,
+                n_mc=12,
+                random_state=seed,
+                **_table_6_2_on_a_common_scale(data, informative),
+            ).fit(X, data.y_sim)
+            ranks[informative] = d.ranking_
+    A, C, D, E = 0, 2, 3, 4
+    assert ranks[False][A] < ranks[False][D] and ranks[False][A] < ranks[False][E]
+    assert ranks[False][C] == 5  # the Type II error of Fig. 6.3
+    assert ranks[True][C] < ranks[False][C]
+
+
+def test_informative_rotation_prior_in_standardised_units(cantilever):
+    """A small relative discrepancy makes the rotation the best single sensor."""
+    data, X = cantilever
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        d = designer(
+            data.prior,
+            max_responses=1,
+            discrepancy_prior={"variance": (0.01, [20, 20, 0.1, 20, 20])},
+        ).fit(X, data.y_sim)
+    assert d.ranking_[2] == 1
+    assert d.scores_[2] < 0.5 * np.min(np.delete(d.scores_, 2))
+
+
+def test_clone_pickle_and_joblib_persistence(exhaustive, tmp_path):
+    clone(exhaustive)
+    for loaded in (
+        pickle.loads(pickle.dumps(exhaustive)),
+        joblib.load(joblib.dump(exhaustive, tmp_path / "designer.joblib")[0]),
+    ):
+        np.testing.assert_array_equal(loaded.scores_, exhaustive.scores_)
+        assert loaded.best_subset_ == exhaustive.best_subset_
+        assert loaded.score_subset((0, 2)) == exhaustive.score_subset((2, 0))
+
+
+def test_verbose_reports_progress(small, capsys):
+    data, X = small
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        designer(data.prior, n_mc=2, max_responses=1, verbose=1).fit(X, data.y_sim)
+    out = capsys.readouterr().out
+    assert "phase 1: 2 replicates" in out and "best subset" in out
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        designer(data.prior, n_mc=2, max_responses=1).fit(X, data.y_sim)
+    assert capsys.readouterr().out == ""
+
+
+@pytest.mark.parametrize(
+    ("params", "error", "match"),
+    [
+        ({"max_responses": 0}, ValueError, "max_responses=0 is out of range"),
+        ({"max_responses": 4}, ValueError, "max_responses=4 is out of range"),
+        ({"max_responses": 1.5}, TypeError, "max_responses must be an int"),
+        ({"search": "random"}, ValueError, "search='random' is not supported"),
+        ({"criterion": "norm"}, ValueError, "criterion='norm' is not supported"),
+        ({"prior_units": "mm"}, ValueError, "prior_units='mm' is not supported"),
+        ({"n_mc": 0}, ValueError, "n_mc must be >= 1"),
+        ({"module2_max_iter": 0}, ValueError, "module2_max_iter must be a positive"),
+        ({"n_design": 1}, ValueError, "n_design must be an integer >= 2"),
+        ({"fast": "yes"}, TypeError, "fast must be True or False"),
+        ({"calibrator": "mba"}, TypeError, "calibrator must be a Modular"),
+        ({"X_design": [[20e3]]}, ValueError, "X_design lies outside the range"),
+        ({"X_design": [[2e3, 1.0]]}, ValueError, "X_design has 2 columns"),
+        ({"discrepancy_prior": {"sd": (0, 1)}}, ValueError, "unknown keys"),
+        (
+            {"discrepancy_prior": {"variance": (2.0, 1.0)}},
+            ValueError,
+            r"discrepancy_prior\['variance'\] needs low <= high",
+        ),
+        (
+            {"discrepancy_prior": {"correlation": 1.0}},
+            ValueError,
+            "not positive definite",
+        ),
+        ({"noise_prior": (-1.0, 1.0)}, ValueError, "noise_prior must be >= 0"),
+        (
+            {"calibrator": ModularBayesCalibrator(discrepancy_kernel=RBF())},
+            TypeError,
+            "no 'roughness' hyperparameter",
+        ),
+    ],
+)
+def test_bad_input_names_the_argument(small, params, error, match):
+    data, X = small
+    with pytest.raises(error, match=match):
+        designer(data.prior, **params).fit(X, data.y_sim)
+
+
+def test_bad_data_names_the_fix(small):
+    data, X = small
+    # The prior has one parameter: X needs a design variable before it.
+    with pytest.raises(ValueError, match="last r columns"):
+        designer(data.prior).fit(X[:, 1:], data.y_sim)
+    two = [stats.uniform(20e3, 80e3), stats.uniform(1, 2)]
+    with pytest.raises(
+        ValueError, match=r"X has 2 columns \(n_features=2\) but the prior has 2"
+    ):
+        designer(two).fit(X, data.y_sim)
+    with pytest.raises(ValueError, match="too few"):
+        designer(data.prior).fit(X[:4], data.y_sim[:4])
+    with pytest.raises(ValueError, match="prior is required"):
+        PreposteriorDesigner().fit(X, data.y_sim)
+    far = [stats.uniform(1e6, 1e5)]
+    with pytest.raises(ValueError, match="do not overlap the prior"):
+        designer(far).fit(X, data.y_sim)
+    with pytest.raises(ValueError, match="NaN"):
+        bad = X.copy()
+        bad[0, 0] = np.nan
+        designer(data.prior).fit(bad, data.y_sim)
