@@ -7,6 +7,8 @@ Build from the repository root with warnings as errors::
 
 import os
 import re
+import shutil
+import tempfile
 import warnings
 
 # The examples factor matrices of a few dozen rows, for which threaded BLAS
@@ -75,6 +77,18 @@ sphinx_gallery_conf = {
     "min_reported_time": 1,
 }
 
+# The truss sensor-design example saves a table and a figure into the folder
+# named by SKMBA_SENSOR_VALIDATION_DIR (default ./skmba-sensor-validation).
+# During the build it writes into a temporary folder, removed when the build
+# finishes, so that the build leaves nothing behind in the repository.
+_VALIDATION_DIR = tempfile.mkdtemp(prefix="skmba-sensor-validation-")
+os.environ["SKMBA_SENSOR_VALIDATION_DIR"] = _VALIDATION_DIR
+
+
+def _remove_validation_dir(app, exception):
+    shutil.rmtree(_VALIDATION_DIR, ignore_errors=True)
+
+
 # Keep the build output free of a known, harmless matplotlib message when the
 # gallery closes figures under the Agg backend.
 warnings.filterwarnings(
@@ -113,3 +127,4 @@ def _plain_sklearn_references(app, what, name, obj, options, lines):
 
 def setup(app):
     app.connect("autodoc-process-docstring", _plain_sklearn_references)
+    app.connect("build-finished", _remove_validation_dir)

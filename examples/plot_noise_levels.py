@@ -1,7 +1,7 @@
 """
-================================================
+===================================================
 Noisy measurements: calibration across noise levels
-================================================
+===================================================
 
 Thesis section 4.7.4 and Table 4.6. Real sensors are noisy. Here the
 measurements of the cantilever beam (tip displacement and deformation
