@@ -440,13 +440,24 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
         MemoryError
             Before allocating, when the ``N x N`` matrices do not fit in the
             available memory.
+
+        After a failed fit the estimator is unfitted (any previous fit is
+        discarded), so that it cannot mix old and new state.
         """
         # numpy and scipy may each bring an OpenBLAS pool; on few cores the
         # pools compete and small-matrix work slows down 2-20x (measured:
         # the noisy q=16 fit of benchmarks/bench_gp.py, 17 s -> 1 s). The
         # likelihood work here is sequential, so hold BLAS to one thread.
         with threadpool_limits(limits=1, user_api="blas"):
-            return self._fit(X, y)
+            try:
+                return self._fit(X, y)
+            except BaseException:
+                # No mix of a previous fit and a failed one: unfitted, so
+                # predict raises NotFittedError instead of answering wrongly.
+                params = self.get_params(deep=False)
+                for name in [k for k in vars(self) if k not in params]:
+                    delattr(self, name)
+                raise
 
     def _fit(self, X, y):
         self._validate_params_()

@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 from scipy.optimize import minimize
 from sklearn.base import clone
-from sklearn.exceptions import ConvergenceWarning
+from sklearn.exceptions import ConvergenceWarning, NotFittedError
 from sklearn.gaussian_process.kernels import RBF, ConstantKernel, Matern, WhiteKernel
 from sklearn.metrics import r2_score
 from sklearn.model_selection import GridSearchCV, KFold
@@ -692,6 +692,16 @@ def test_bad_input_gives_a_clear_message(case, fitted_gp):
             action(fitted_gp)
 
 
+def test_failed_refit_leaves_the_estimator_unfitted(fitted_gp):
+    gp = clone(fitted_gp).fit(X_BAD, Y_BAD)
+    with pytest.raises(ValueError, match="duplicated row"):
+        gp.fit(np.vstack([X_BAD, X_BAD[:1]]), np.vstack([Y_BAD, Y_BAD[:1] + 1]))
+    with pytest.raises(NotFittedError):
+        gp.predict(X_BAD)
+    assert gp.get_params() == fitted_gp.get_params()
+    assert gp.fit(X_BAD, Y_BAD).score(X_BAD, Y_BAD) > 0.999
+
+
 def test_constant_input_column_is_harmless_with_constant_regression():
     X = X_BAD.copy()
     X[:, 1] = 0.5
@@ -966,7 +976,7 @@ def gp_problems(draw):
 SKMBA_DIR = os.path.dirname(skmba.__file__)
 
 
-@settings(max_examples=150, deadline=None, database=None, derandomize=True)
+@settings(max_examples=250, deadline=None, database=None, derandomize=True)
 @given(gp_problems())
 def test_fit_gives_finite_predictions_or_a_clear_error(problem):
     X, Y, regression, noise = problem
