@@ -106,15 +106,17 @@ def test_chains_are_seeded_per_chain_not_by_order():
     assert len({chain.tobytes() for chain in cal.theta_chains_}) == 3
 
 
-def test_dask_cluster_gives_the_default_backends_results():
+@pytest.fixture(scope="module")
+def dask_client():
+    """A dask client on a local cluster of threads in this process.
+
+    Threads start in about a second and need no pickling of the test module;
+    tasks still go through dask's scheduler.
+    """
     distributed = pytest.importorskip(
         "distributed",
         reason="dask.distributed is not installed (pip install 'skmba[dask]')",
     )
-    data, params = SETTINGS["mcmc"]
-    expected = outcome(fit(data, **params), data)
-    # Threads in this process: starts in about a second and needs no
-    # pickling of the test module; tasks still go through dask's scheduler.
     with (
         distributed.LocalCluster(
             n_workers=2,
@@ -124,22 +126,29 @@ def test_dask_cluster_gives_the_default_backends_results():
         ) as cluster,
         distributed.Client(cluster) as client,
     ):
-        with (
-            distributed.get_task_stream(client) as tasks,
-            joblib.parallel_config(backend="dask"),
-        ):
-            on_dask = outcome(fit(data, **params), data)
+        yield client
+
+
+def on_dask(client, run):
+    """``run()`` under joblib's dask backend; returns its result and tasks."""
+    from distributed import get_task_stream
+
+    with get_task_stream(client) as tasks, joblib.parallel_config(backend="dask"):
+        result = run()
+    return result, tasks.data
+
+
+def test_dask_cluster_gives_the_default_backends_results(dask_client):
+    data, params = SETTINGS["mcmc"]
+    expected = outcome(fit(data, **params), data)
+    result, tasks = on_dask(dask_client, lambda: outcome(fit(data, **params), data))
     # The chains, module-2 blocks and predictions ran as dask tasks.
-    assert len(tasks.data) >= params["n_chains"]
-    assert_identical(on_dask, expected)
+    assert len(tasks) >= params["n_chains"]
+    assert_identical(result, expected)
 
 
-def test_dask_cluster_runs_the_designers_replicates():
+def test_dask_cluster_runs_the_designers_replicates(dask_client):
     """FPA replicates and subsets on dask equal the default backend's."""
-    distributed = pytest.importorskip(
-        "distributed",
-        reason="dask.distributed is not installed (pip install 'skmba[dask]')",
-    )
     from skmba import PreposteriorDesigner
 
     data = make_cantilever(
@@ -155,26 +164,13 @@ def test_dask_cluster_runs_the_designers_replicates():
             n_mc=4,
             n_jobs=2,
             random_state=0,
-        )
+        ).fit(X, data.y_sim)
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        expected = designer().fit(X, data.y_sim)
-        with (
-            distributed.LocalCluster(
-                n_workers=2,
-                threads_per_worker=1,
-                processes=False,
-                dashboard_address=None,
-            ) as cluster,
-            distributed.Client(cluster) as client,
-        ):
-            with (
-                distributed.get_task_stream(client) as tasks,
-                joblib.parallel_config(backend="dask"),
-            ):
-                on_dask = designer().fit(X, data.y_sim)
-    assert len(tasks.data) >= 4
-    np.testing.assert_array_equal(on_dask.scores_, expected.scores_)
-    np.testing.assert_array_equal(on_dask.theta_draws_, expected.theta_draws_)
-    np.testing.assert_array_equal(on_dask.convergence_, expected.convergence_)
+        expected = designer()
+        result, tasks = on_dask(dask_client, designer)
+    assert len(tasks) >= 4
+    np.testing.assert_array_equal(result.scores_, expected.scores_)
+    np.testing.assert_array_equal(result.theta_draws_, expected.theta_draws_)
+    np.testing.assert_array_equal(result.convergence_, expected.convergence_)
