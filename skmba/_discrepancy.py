@@ -8,35 +8,162 @@ covariance ``V_bar``, see :mod:`skmba._integration`), the field data obey
                  V_bar + Sigma_d ⊗ R_d(omega_d) + Lambda ⊗ I_n)
 
 ``beta_d`` is the GLS estimate; ``omega_d`` (the discrepancy kernel),
-``Sigma_d`` (full q x q, through its Cholesky factor with a log diagonal)
-and ``Lambda`` (diagonal, in log space) maximise the likelihood with analytic
-gradients, from the starting point and random restarts, or by scipy's
-differential evolution followed by L-BFGS-B (the analogue of the thesis'
-genetic algorithm, appendix C.1.3). ``V_bar`` has no Kronecker structure, so
-each evaluation factors the ``nq x nq`` covariance once.
+``Sigma_d`` (full q x q) and ``Lambda`` (diagonal, in log space) maximise the
+likelihood with analytic gradients, from the starting point and random
+restarts, or by scipy's differential evolution followed by L-BFGS-B (the
+analogue of the thesis' genetic algorithm, appendix C.1.3). ``V_bar`` has no
+Kronecker structure, so each evaluation factors the ``nq x nq`` covariance
+once.
 
-Examples
---------
->>> import numpy as np
->>> from skmba._discrepancy import DISCREPANCY_OPTIMIZERS
->>> DISCREPANCY_OPTIMIZERS
-('fmin_l_bfgs_b', 'differential_evolution')
+``Sigma_d = diag(low) + diag(s) C diag(s)``: ``low`` is the lower end of the
+range of the discrepancy variances, held as a part of each response's own
+that no correlation can cancel, and ``s`` and ``C`` are free: ``log s``, and
+the Cholesky factor of the correlation ``C`` with rows ``w_i / |w_i|``,
+``w_i = (z_i1, ..., z_i,i-1, 1)`` and free ``z`` (every correlation matrix is
+reached). Bounds on ``s`` make the diagonal of ``Sigma_d`` lie exactly in the
+range. Thesis Table 6.2 gives the default ranges
+(:data:`TABLE_6_2_RANGES`): a uniform prior on the hyperparameters, whose
+maximum a posteriori is the likelihood maximised inside them.
+
+Why a lower end: when the model at some ``theta`` reproduces the field data,
+as on the cantilever whose spring only rescales the responses, the plain
+maximum likelihood makes the discrepancy vanish, or perfectly correlated
+between responses, and module 3 then pins ``theta`` to the value that needs
+no discrepancy, with a credible interval that ignores that the model is
+known to be wrong (Brynjarsdottir & O'Hagan, 2014, Inverse Problems 30).
 """
 
 import warnings
 
 import numpy as np
 from scipy import linalg, optimize
+from sklearn.base import clone
 from sklearn.exceptions import ConvergenceWarning
 from sklearn.utils import check_random_state
 
 from skmba._linalg import FactorizationError, cholesky, log_det_from_cholesky
 
 DISCREPANCY_OPTIMIZERS = ("fmin_l_bfgs_b", "differential_evolution")
+#: Thesis Table 6.2: ranges of the discrepancy roughness (per standardised
+#: design variable) and variance (per response, relative to the variance of
+#: the simulated response), the prior of the discrepancy hyperparameters.
+TABLE_6_2_RANGES = {"roughness": (0.1, 9.0), "variance": (1e-2, 20.0)}
 _LOG_REL_NOISE = (np.log(1e-8), np.log(10.0))
-_LOG_REL_CHOL_DIAG = (np.log(1e-5), np.log(1e2))
-_OFF_DIAG = (-1e2, 1e2)
+# Without a variance range: standard deviations within these multiples of
+# each residual's standard deviation.
+_LOG_REL_SD = (np.log(1e-5), np.log(1e2))
+_CORR_FREE = (-1e2, 1e2)
 _LOG_2PI = np.log(2.0 * np.pi)
+
+
+def check_interval(value, name, size, *, lower=None):
+    """``(lo, hi)`` of scalars or of arrays of length ``size``, checked.
+
+    Examples
+    --------
+    >>> check_interval((0.1, [1.0, 2.0]), "ranges", 2)
+    (array([0.1, 0.1]), array([1., 2.]))
+    """
+    try:
+        lo, hi = value
+        lo = np.broadcast_to(np.asarray(lo, dtype=float), (size,)).copy()
+        hi = np.broadcast_to(np.asarray(hi, dtype=float), (size,)).copy()
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"{name} must be a pair (low, high) of numbers or of arrays of length "
+            f"{size}, got {value!r}."
+        ) from None
+    if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
+        raise ValueError(f"{name} must be finite, got {value!r}.")
+    if np.any(lo > hi):
+        raise ValueError(f"{name} needs low <= high, got {value!r}.")
+    if lower is not None and np.any(lo < lower):
+        raise ValueError(f"{name} must be >= {lower}, got {value!r}.")
+    return lo, hi
+
+
+def check_discrepancy_ranges(spec, d, q, name="discrepancy_prior"):
+    """The module-2 ranges of the discrepancy roughness and variance.
+
+    ``spec`` is None (thesis Table 6.2) or a dict with keys among
+    ``"roughness"`` and ``"variance"``: a pair ``(low, high)`` of scalars or
+    arrays (``d`` roughnesses, ``q`` variances), or None for no range (the
+    kernel's own bounds; the plain maximum-likelihood variance). Missing keys
+    take Table 6.2's values. Returns a dict of ``(low, high)`` arrays or None.
+
+    Examples
+    --------
+    >>> check_discrepancy_ranges({"roughness": None}, d=1, q=2)
+    {'roughness': None, 'variance': (array([0.01, 0.01]), array([20., 20.]))}
+    """
+    if spec is None:
+        spec = {}
+    if not isinstance(spec, dict):
+        raise TypeError(
+            f"{name} must be None or a dict with keys among "
+            f"{sorted(TABLE_6_2_RANGES)}, got {type(spec).__name__}."
+        )
+    unknown = set(spec) - set(TABLE_6_2_RANGES)
+    if unknown:
+        raise ValueError(
+            f"{name} has unknown keys {sorted(unknown)}; the calibrator bounds "
+            f"only {sorted(TABLE_6_2_RANGES)} (the discrepancy mean is estimated "
+            "by generalised least squares and its correlation freely)."
+        )
+    spec = {**TABLE_6_2_RANGES, **spec}
+    out = {}
+    for key, size, lower in (("roughness", d, None), ("variance", q, 0.0)):
+        if spec[key] is None:
+            out[key] = None
+            continue
+        out[key] = check_interval(spec[key], f"{name}[{key!r}]", size, lower=lower)
+    if out["roughness"] is not None and np.any(out["roughness"][0] <= 0):
+        raise ValueError(
+            f"{name}['roughness'] must be > 0, got {spec['roughness']!r}; use "
+            "None to keep the kernel's own roughness_bounds."
+        )
+    return out
+
+
+def bound_roughness(kernel, low, high, name="discrepancy_prior"):
+    """A clone of ``kernel`` whose roughness is optimised in ``[low, high]``.
+
+    A kernel whose roughness is ``"fixed"`` is returned unchanged.
+
+    Examples
+    --------
+    >>> from skmba.kernels import Gauss
+    >>> bound_roughness(Gauss(0.01), np.array([0.1]), np.array([9.0]))
+    Gauss(roughness=0.1)
+    """
+    params = kernel.get_params()
+    if "roughness" not in params:
+        raise TypeError(
+            f"{name}['roughness'] needs a discrepancy kernel with a 'roughness' "
+            f"hyperparameter (the kernels of skmba.kernels), got {kernel!r}; pass "
+            f"{name}={{'roughness': None}} to keep the kernel's own bounds."
+        )
+    if isinstance(params.get("roughness_bounds"), str):  # "fixed"
+        return kernel
+    roughness = np.asarray(params["roughness"], dtype=float)
+    if roughness.ndim == 0:
+        if np.ptp(low) > 0 or np.ptp(high) > 0:
+            raise ValueError(
+                f"{name}['roughness'] gives one range per design variable but "
+                f"the kernel {kernel!r} is isotropic; give it one roughness per "
+                "design variable or use one range."
+            )
+        bounds = (float(low[0]), float(high[0]))
+        start = float(np.clip(roughness, *bounds))
+    else:
+        if roughness.size != low.size:
+            raise ValueError(
+                f"The discrepancy kernel {kernel!r} has {roughness.size} "
+                f"roughnesses for {low.size} design variables."
+            )
+        bounds = np.column_stack([low, high])
+        start = np.clip(roughness, low, high)
+    return clone(kernel).set_params(roughness=start, roughness_bounds=bounds)
 
 
 class DiscrepancyFit:
@@ -45,7 +172,8 @@ class DiscrepancyFit:
     Parameters
     ----------
     kernel : sklearn Kernel
-        Discrepancy correlation (its ``theta`` is optimised).
+        Discrepancy correlation (its ``theta`` is optimised within its
+        bounds).
     X : ndarray of shape (n, d)
     Y : ndarray of shape (n, q)
         Field data minus the integrated emulator mean.
@@ -53,6 +181,12 @@ class DiscrepancyFit:
         Discrepancy regression matrix.
     V_fixed : ndarray of shape (n q, n q)
         The integrated emulator covariance (``vec`` response-slowest).
+    variance_bounds : pair of ndarray of shape (q,), default=None
+        ``(low, high)`` of the discrepancy variances (diagonal of
+        ``Sigma_d``), in the units of ``Y``; ``low`` may be 0. ``low`` is
+        held as an independent part of each response's discrepancy (see the
+        module docstring). None means no floor and standard deviations up to
+        100 times each column's of ``Y``: the plain maximum likelihood.
 
     Examples
     --------
@@ -65,14 +199,21 @@ class DiscrepancyFit:
     (2, 2)
     """
 
-    def __init__(self, kernel, X, Y, H, V_fixed):
+    def __init__(self, kernel, X, Y, H, V_fixed, variance_bounds=None):
         self.kernel, self.X, self.Y, self.H, self.V_fixed = kernel, X, Y, H, V_fixed
         self.n, self.q = Y.shape
         self.scale = np.maximum(Y.std(axis=0), 1e-8 * max(np.abs(Y).max(), 1e-300))
-        self.rows, self.cols = np.tril_indices(self.q)
-        self.on_diag = self.rows == self.cols
+        self.rows, self.cols = np.tril_indices(self.q, -1)
         self.n_kernel = kernel.n_dims
         self.fixed_noise = None
+        self.log_sd_bounds = np.tile(_LOG_REL_SD, (self.q, 1))
+        self.floor = np.zeros(self.q)
+        if variance_bounds is not None:
+            lo, hi = (np.broadcast_to(v, (self.q,)) for v in variance_bounds)
+            self.floor = np.array(lo, dtype=float)
+            # The free part s^2 spans [0, high - low]; its log needs a bottom.
+            top = 0.5 * np.log(np.maximum(hi - lo, 0.0) / self.scale**2 + 1e-300)
+            self.log_sd_bounds[:, 1] = np.maximum(top, _LOG_REL_SD[0])
 
     def fix_noise(self, relative):
         """Hold the noise at ``relative`` times each response's variance."""
@@ -80,31 +221,43 @@ class DiscrepancyFit:
         return self
 
     # ------------------------------------------------------- parameters
+    # params = [kernel theta (k), log relative noise (q), log relative
+    # discrepancy sd (q), correlation-factor z (q (q - 1) / 2, row-major)]
+    def _correlation_factor(self, z):
+        """Unit-row lower-triangular factor of the correlation, and |w_i|."""
+        W = np.eye(self.q)
+        W[self.rows, self.cols] = z
+        norms = np.linalg.norm(W, axis=1)
+        return W / norms[:, None], norms
+
     def unpack(self, params):
         k, q = self.n_kernel, self.q
         theta = params[:k]
         lam = np.exp(params[k : k + q]) * self.scale**2
-        L = np.zeros((q, q))
-        L[self.rows, self.cols] = params[k + q :]
-        L[np.diag_indices(q)] = np.exp(np.diag(L))
-        return theta, lam, L * self.scale[:, None]
+        sd = np.exp(params[k + q : k + 2 * q]) * self.scale
+        U, _ = self._correlation_factor(params[k + 2 * q :])
+        return theta, lam, U * sd[:, None]
 
     def pack(self, theta, lam, L):
-        Ls = L / self.scale[:, None]
-        Ls[np.diag_indices(self.q)] = np.log(np.diag(Ls))
+        """Inverse of :meth:`unpack` for any lower-triangular ``L`` with a
+        positive diagonal (``Sigma_d = diag(floor) + L L'``)."""
+        L = np.asarray(L, dtype=float)
+        sd = np.linalg.norm(L, axis=1)
+        z = (L / np.diag(L)[:, None])[self.rows, self.cols]
         return np.concatenate(
-            [theta, np.log(lam / self.scale**2), Ls[self.rows, self.cols]]
+            [theta, np.log(lam / self.scale**2), np.log(sd / self.scale), z]
         )
 
     def bounds(self):
-        tri = np.array(
-            [_LOG_REL_CHOL_DIAG if d else _OFF_DIAG for d in self.on_diag]
-        ).reshape(-1, 2)
         parts = [self.kernel.bounds if self.n_kernel else np.zeros((0, 2))]
         noise = _LOG_REL_NOISE
         if self.fixed_noise is not None:
             noise = (np.log(self.fixed_noise),) * 2
-        parts += [np.tile(noise, (self.q, 1)), tri]
+        parts += [
+            np.tile(noise, (self.q, 1)),
+            self.log_sd_bounds,
+            np.tile(_CORR_FREE, (len(self.rows), 1)),
+        ]
         return np.vstack(parts)
 
     # ------------------------------------------------------- likelihood
@@ -117,7 +270,7 @@ class DiscrepancyFit:
             R, dR = k(self.X, eval_gradient=True)
         else:
             R, dR = k(self.X), None
-        sigma2 = L @ L.T
+        sigma2 = L @ L.T + np.diag(self.floor)
         V = self.V_fixed + np.kron(sigma2, R) + np.kron(np.diag(lam), np.eye(n))
         C = cholesky(
             V,
@@ -141,12 +294,17 @@ class DiscrepancyFit:
         M = np.einsum("ab,aibj->ij", sigma2, K)
         g_kernel = 0.5 * (dR.reshape(n * n, -1).T @ M.ravel())
         g_sigma = 0.5 * np.einsum("aibj,ij->ab", K, R)
-        # Chain rule through L = diag(scale) Ls with a log diagonal.
-        g_full = 2.0 * g_sigma @ L
-        g_L = g_full[self.rows, self.cols] * self.scale[self.rows]
-        g_L[self.on_diag] = np.diag(g_full) * np.diag(L)
+        # Chain rule through L = diag(sd) U, U_i = w_i / |w_i| (see unpack).
+        g_L = np.tril(2.0 * g_sigma @ L)
+        g_log_sd = np.einsum("ij,ij->i", g_L, L)
+        U, norms = self._correlation_factor(params[self.n_kernel + 2 * q :])
+        sd = np.exp(params[self.n_kernel + q : self.n_kernel + 2 * q]) * self.scale
+        g_U = g_L * sd[:, None]
+        g_W = (g_U - np.einsum("ij,ij->i", g_U, U)[:, None] * U) / norms[:, None]
         g_lam = 0.5 * np.einsum("aiai->a", K) * lam
-        return ll, np.concatenate([g_kernel, g_lam, g_L])
+        return ll, np.concatenate(
+            [g_kernel, g_lam, g_log_sd, g_W[self.rows, self.cols]]
+        )
 
     def _objective(self, params, eval_gradient=True):
         try:
@@ -162,7 +320,8 @@ class DiscrepancyFit:
         cov = np.atleast_2d(np.cov(self.Y, rowvar=False, bias=True))
         L0 = np.linalg.cholesky(0.5 * cov + 1e-3 * np.diag(self.scale**2))
         relative = 0.1 if self.fixed_noise is None else self.fixed_noise
-        return self.pack(self.kernel.theta, relative * self.scale**2, L0)
+        start = self.pack(self.kernel.theta, relative * self.scale**2, L0)
+        return np.clip(start, *self.bounds().T)
 
     def optimize(
         self,
@@ -199,8 +358,7 @@ class DiscrepancyFit:
         if optimizer == "differential_evolution":
             box = bounds.copy()
             box[~np.isfinite(box)] = 0.0
-            off = np.flatnonzero(np.r_[np.zeros(self.n_kernel + self.q), ~self.on_diag])
-            box[off] = (-3.0, 3.0)  # off-diagonals of chol(Sigma_d) / scale
+            box[self.n_kernel + 2 * self.q :] = (-3.0, 3.0)  # correlations z
             result = optimize.differential_evolution(
                 lambda p: self._objective(p, eval_gradient=False),
                 box,

@@ -91,6 +91,14 @@ class GlobalModel:
     discrepancy_regression : str
     sigma2_d : ndarray of shape (q, q)
     noise : ndarray of shape (q,)
+    nugget : float, default=0.0
+        The emulator's nugget ``alpha_``. It is on the diagonal of the model
+        correlation at the field inputs as at the simulations, so that the
+        model term of the global covariance is ``Sigma2_m ⊗ (R(D) + alpha
+        I)`` over all its points: the emulator's own uncertainty at a
+        simulated point. It also keeps the Schur complement positive
+        definite when the round-off of ``R_ee - R_me' R_mm^-1 R_me``, scaled
+        by a large ``Sigma2_m``, would exceed a vanishing noise.
 
     Examples
     --------
@@ -111,8 +119,10 @@ class GlobalModel:
         discrepancy_regression,
         sigma2_d,
         noise,
+        nugget=0.0,
     ):
         self.X_m, self.Y_m, self.X_e, self.Y_e = X_m, Y_m, X_e, Y_e
+        self.nugget = float(nugget)
         self.kernel_m, self.regression_m = model_kernel, model_regression
         self.kernel_d, self.regression_d = discrepancy_kernel, discrepancy_regression
         self.C_m = model_fit.C
@@ -167,6 +177,7 @@ class GlobalModel:
         r = self.kernel_m(self.X_m, P_e)  # (N, n)
         Rt = linalg.solve_triangular(self.C_m, r, lower=True)
         T = self.kernel_m(P_e) - Rt.T @ Rt  # emulator correlation given sims
+        T[np.diag_indices(n)] += self.nugget
         S = self.S_fixed + np.kron(self.sigma2_m, T)
         L_S = cholesky(S, what="Schur complement S(theta)", remedy=_S_REMEDY)
         # Field rows of H_Y minus B'A^-1 times the simulation rows, whitened.
@@ -310,6 +321,9 @@ class FieldDesignEmulator:
     model_regression : str
     X_e : ndarray of shape (n, d)
         The field design (standardised).
+    nugget : float, default=0.0
+        The emulator's nugget, on the diagonal of ``T`` as in
+        :class:`GlobalModel`.
 
     Examples
     --------
@@ -317,8 +331,11 @@ class FieldDesignEmulator:
     :class:`GlobalModel` restricted to the same responses.
     """
 
-    def __init__(self, model_fit, X_m, Y_m, model_kernel, model_regression, X_e):
+    def __init__(
+        self, model_fit, X_m, Y_m, model_kernel, model_regression, X_e, nugget=0.0
+    ):
         self.X_m, self.X_e = X_m, X_e
+        self.nugget = float(nugget)
         self.kernel_m, self.regression_m = model_kernel, model_regression
         self.C_m = model_fit.C
         self.sigma2_m = model_fit.sigma2
@@ -350,6 +367,7 @@ class FieldDesignEmulator:
         Rt = Rt.reshape(self.N, k, n)
         prior = np.stack([self.kernel_m(points[i * n : (i + 1) * n]) for i in range(k)])
         T = prior - np.einsum("mki,mkj->kij", Rt, Rt)
+        T[:, np.arange(n), np.arange(n)] += self.nugget  # as in GlobalModel
         return T, H_me.reshape(k, n, -1), M.reshape(k, n, -1)
 
     def simulation_block(self, responses):

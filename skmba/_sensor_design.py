@@ -12,7 +12,9 @@ identify ``theta``? It answers by Monte Carlo over everything unknown:
   emulator realisation at ``(X_e, theta_i)``, discrepancy hyperparameters
   from ``discrepancy_prior`` and a discrepancy realisation, and noise from
   ``noise_prior``; their sum is synthetic field data ``Y_e``. Module 2
-  estimates the discrepancy hyperparameters from ``Y_e`` (phase 1: once,
+  estimates the discrepancy hyperparameters from ``Y_e`` within the
+  roughness and variance ranges of ``discrepancy_prior``, the prior they
+  were drawn from (phase 1: once,
   with all responses, then reused for every subset when ``fast=True``; per
   subset when ``fast=False``, as in Arendt et al.), and module 3 gives the
   posterior covariance ``V_i(S)`` of ``theta`` for every subset;
@@ -37,6 +39,7 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 from threadpoolctl import threadpool_limits
 
 from skmba._calibration import ModularBayesCalibrator
+from skmba._discrepancy import TABLE_6_2_RANGES, check_interval
 from skmba._gp import default_kernel
 from skmba._importance import posterior_moments
 from skmba._posterior import FieldDesignEmulator, SubsetLikelihood
@@ -51,34 +54,13 @@ PRIOR_UNITS = ("standardised", "user")
 #: discrepancy roughness, variance (relative to each response's variance)
 #: and regression coefficients (in response standard deviations).
 DEFAULT_DISCREPANCY_PRIOR = {
-    "roughness": (0.1, 9.0),
-    "variance": (1e-2, 20.0),
+    **TABLE_6_2_RANGES,
     "mean": (-5.0, 5.0),
     "correlation": "random",
 }
 #: Table 6.2: observation noise variance relative to each response's variance.
 DEFAULT_NOISE_PRIOR = (0.0, 1e-4)
 DEFAULT_N_DESIGN = 25
-
-
-def _interval(value, name, size, *, lower=None):
-    """``(lo, hi)`` of scalars or of arrays of length ``size``, checked."""
-    try:
-        lo, hi = value
-        lo = np.broadcast_to(np.asarray(lo, dtype=float), (size,)).copy()
-        hi = np.broadcast_to(np.asarray(hi, dtype=float), (size,)).copy()
-    except (TypeError, ValueError):
-        raise ValueError(
-            f"{name} must be a pair (low, high) of numbers or of arrays of length "
-            f"{size}, got {value!r}."
-        ) from None
-    if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
-        raise ValueError(f"{name} must be finite, got {value!r}.")
-    if np.any(lo > hi):
-        raise ValueError(f"{name} needs low <= high, got {value!r}.")
-    if lower is not None and np.any(lo < lower):
-        raise ValueError(f"{name} must be >= {lower}, got {value!r}.")
-    return lo, hi
 
 
 def _criterion(cov, prior_sd, criterion):
@@ -199,6 +181,8 @@ def _module2(ctx, rep, responses):
             seed,
             start=start,
             max_iter=ctx.module2_max_iter,
+            responses=idx,
+            ranges={key: ctx.priors[key] for key in ("roughness", "variance")},
         )
     rep.n_unconverged += sum(issubclass(w.category, ConvergenceWarning) for w in caught)
     return disc
@@ -292,7 +276,10 @@ class PreposteriorDesigner(BaseEstimator):
         degrees of freedom scaled to unit diagonal, so that each correlation
         is uniform on ``(-1, 1)``), ``"independent"``, or a number ``rho``
         (equal correlation between every pair of responses). Missing keys take
-        the defaults.
+        the defaults. The module-2 fits of the replicates maximise the
+        likelihood within the ``roughness`` and ``variance`` ranges (the
+        maximum a posteriori under this prior, as the calibrator does with
+        its own ``discrepancy_prior``, which the designer does not use).
     noise_prior : (low, high), default=None
         Uniform prior of each response's noise variance, relative to the
         response's variance in the simulations (scalars or arrays of length
@@ -538,14 +525,14 @@ class PreposteriorDesigner(BaseEstimator):
             )
         spec = {**DEFAULT_DISCREPANCY_PRIOR, **given}
         out = {
-            "roughness": _interval(
+            "roughness": check_interval(
                 spec["roughness"], "discrepancy_prior['roughness']", d, lower=0.0
             ),
-            "variance": _interval(
+            "variance": check_interval(
                 spec["variance"], "discrepancy_prior['variance']", q, lower=0.0
             ),
-            "mean": _interval(spec["mean"], "discrepancy_prior['mean']", q),
-            "noise": _interval(
+            "mean": check_interval(spec["mean"], "discrepancy_prior['mean']", q),
+            "noise": check_interval(
                 DEFAULT_NOISE_PRIOR if self.noise_prior is None else self.noise_prior,
                 "noise_prior",
                 q,
@@ -688,7 +675,13 @@ class PreposteriorDesigner(BaseEstimator):
         Xs = cal._std_x(X_design)
         state = cal.model_gp_._fit_state
         design = FieldDesignEmulator(
-            state, Z_sim, Ys_sim, cal.model_gp_.kernel_, cal.regression, Xs
+            state,
+            Z_sim,
+            Ys_sim,
+            cal.model_gp_.kernel_,
+            cal.regression,
+            Xs,
+            nugget=cal.model_gp_.alpha_,
         )
         ctx = _Context(self, cal, design, self.prior_, priors)
         ctx.mean_bar, ctx.V_bar = cal._integrated_emulator(Xs, seeds[1])

@@ -58,3 +58,44 @@ def test_differential_evolution_and_bad_optimizer(problem):
     assert fit.log_likelihood >= local.log_likelihood - 1e-3 * abs(local.log_likelihood)
     with pytest.raises(ValueError, match="discrepancy optimizer"):
         fit.optimize(optimizer="adam")
+
+
+def test_pack_inverts_unpack_and_covers_any_covariance(problem):
+    X, Y, V_fixed = problem
+    fit = DiscrepancyFit(Gauss([1.0, 2.0]), X, Y, np.ones((15, 1)), V_fixed)
+    rng = np.random.default_rng(2)
+    A = rng.normal(size=(3, 3))
+    sigma2 = A @ A.T + 0.1 * np.eye(3)  # correlations up to about 0.9
+    L = np.linalg.cholesky(sigma2)
+    lam = np.array([0.01, 0.02, 0.03])
+    params = fit.pack(np.log([1.0, 2.0]), lam, L)
+    theta, lam_back, L_back = fit.unpack(params)
+    np.testing.assert_allclose(L_back @ L_back.T, sigma2, rtol=1e-12)
+    np.testing.assert_allclose(lam_back, lam, rtol=1e-12)
+    np.testing.assert_allclose(fit.pack(theta, lam_back, L_back), params)
+
+
+def test_variance_bounds_hold_exactly_with_a_free_correlation(problem):
+    X, Y, V_fixed = problem
+    low, high = np.array([0.05, 0.2, 0.01]), np.array([0.1, 5.0, 0.02])
+    fit = DiscrepancyFit(
+        Gauss([1.0, 2.0]), X, Y, np.ones((15, 1)), V_fixed, (low, high)
+    )
+    fit.optimize(n_restarts=1, random_state=0)
+    variances = np.diag(fit.sigma2)
+    assert np.all(variances >= low * (1 - 1e-9)) and np.all(variances <= high * 1.001)
+    # The lower end is each response's own part: Sigma_d - diag(low) is PSD.
+    assert np.linalg.eigvalsh(fit.sigma2 - np.diag(low))[0] > -1e-12
+    # The gradient is still the likelihood's, with the floor in place.
+    x = fit.params + 0.05 * np.random.default_rng(3).normal(size=fit.params.size)
+    _, grad = fit.evaluate(x)
+    h = 1e-6
+    numeric = [
+        (fit.evaluate(x + h * e, False) - fit.evaluate(x - h * e, False)) / (2 * h)
+        for e in np.eye(x.size)
+    ]
+    np.testing.assert_allclose(grad, numeric, rtol=1e-5, atol=1e-6)
+    # The unbounded maximum is at least as likely as the bounded one.
+    plain = DiscrepancyFit(Gauss([1.0, 2.0]), X, Y, np.ones((15, 1)), V_fixed)
+    plain.optimize(n_restarts=1, random_state=0)
+    assert plain.log_likelihood >= fit.log_likelihood - 1e-8

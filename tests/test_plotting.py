@@ -309,10 +309,15 @@ def test_posterior_from_calibrator(calibrator, data):
     np.testing.assert_allclose(vertical[:2], interval)
     mean = calibrator.theta_samples_.mean()
     assert ax.get_title().startswith(f"E: mean {mean:.5g}")
-    # The posterior is far narrower than the uniform prior: "auto" zooms on
-    # it (and the truth), "prior" shows the prior's range.
+    # The draws span more than 5 % of the prior's range: "auto" shows them
+    # against it; "posterior" zooms on the draws and the truth.
     lo, hi = ax.get_xlim()
-    assert lo > 30e3 and hi < 90e3 and hi > data.theta_true[0]
+    assert lo < 21e3 and hi > 99e3
+    draws = calibrator.theta_samples_[:, 0]
+    fig = plot_posterior(calibrator, true_value=data.theta_true, limits="posterior")
+    lo, hi = fig.axes[0].get_xlim()
+    assert lo < draws.min() and hi > max(draws.max(), data.theta_true[0])
+    assert hi - lo < 1.1 * (max(draws.max(), data.theta_true[0]) - draws.min())
     fig = plot_posterior(calibrator, limits="prior")
     lo, hi = fig.axes[0].get_xlim()
     assert lo < 21e3 and hi > 99e3

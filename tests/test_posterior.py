@@ -41,6 +41,7 @@ def problem():
         "constant",
         sigma2_d,
         noise,
+        nugget=gp.alpha_,
     )
     return gp, gm, X_m, Y_m, X_e, Y_e, sigma2_d, noise
 
@@ -55,8 +56,9 @@ def dense_global(problem, theta, component=None, X_star=None):
     R_mm = km(X_m) + 1e-6 * np.eye(N)
     A = np.kron(S_m, R_mm)
     B = np.kron(S_m, km(X_m, P_e))
+    # The nugget is on the whole model correlation R(D), field points too.
     D = (
-        np.kron(S_m, km(P_e))
+        np.kron(S_m, km(P_e) + 1e-6 * np.eye(n))
         + np.kron(sigma2_d, kd(X_e))
         + np.kron(np.diag(noise), np.eye(n))
     )
@@ -181,7 +183,9 @@ def test_subset_likelihood_equals_global_model_of_the_subset(subset):
     state = gp._fit_state
     idx = list(subset)
     kd = Gauss(roughness=2.0)
-    design = FieldDesignEmulator(state, X_m, Y_m, gp.kernel_, "linear", X_e)
+    design = FieldDesignEmulator(
+        state, X_m, Y_m, gp.kernel_, "linear", X_e, nugget=gp.alpha_
+    )
     H_d = regression_basis(X_e, "constant")
     like = SubsetLikelihood(design, idx, Y_e, kd(X_e), H_d, sigma2_d, noise)
     thetas = np.array([[-0.7], [0.1], [0.9]])
@@ -205,6 +209,7 @@ def test_subset_likelihood_equals_global_model_of_the_subset(subset):
         "constant",
         sigma2_d[np.ix_(idx, idx)],
         noise[idx],
+        nugget=gp.alpha_,
     )
     reference = np.array([gm.log_likelihood(t) for t in thetas])
     np.testing.assert_allclose(batched, reference, rtol=1e-8, atol=1e-8)
@@ -215,7 +220,9 @@ def test_subset_likelihood_marks_non_positive_definite_theta():
     from skmba._posterior import FieldDesignEmulator, SubsetLikelihood
 
     gp, X_m, Y_m, X_e, Y_e, sigma2_d, noise = _three_response_problem()
-    design = FieldDesignEmulator(gp._fit_state, X_m, Y_m, gp.kernel_, "linear", X_e)
+    design = FieldDesignEmulator(
+        gp._fit_state, X_m, Y_m, gp.kernel_, "linear", X_e, nugget=gp.alpha_
+    )
     H_d = regression_basis(X_e, "constant")
     like = SubsetLikelihood(
         design, [0, 1], Y_e, Gauss(roughness=2.0)(X_e), H_d, sigma2_d, noise
