@@ -167,7 +167,8 @@ class DenseGlobalLikelihood:
     Built from the same fitted pieces as ``cal._global`` (standardised
     units): ``V_Y = [[A, B], [B', D]]`` with ``A = Sigma_m ⊗ (R_m(D_m, D_m) +
     alpha I)``, ``B = Sigma_m ⊗ R_m(D_m, D_e)``, ``D = Lambda ⊗ I + Sigma_m ⊗
-    R_m(D_e, D_e) + Sigma_d ⊗ R_d(X_e, X_e)`` and ``H_Y = [[I ⊗ H_m, 0],
+    (R_m(D_e, D_e) + alpha I) + Sigma_d ⊗ R_d(X_e, X_e)`` (``alpha`` the
+    emulator's nugget ``alpha_``) and ``H_Y = [[I ⊗ H_m, 0],
     [I ⊗ H_m(D_e), I ⊗ H_d]]``. The blocks that do not depend on theta are
     assembled once; everything of size ``(N + n) q`` that does is rebuilt and
     factored at every call.
@@ -180,10 +181,13 @@ class DenseGlobalLikelihood:
         self.N, self.n, self.q = N, n, q
         self.M = (N + n) * q
         R_mm = gm.kernel_m(gm.X_m)
-        R_mm[np.diag_indices(N)] += cal.emulator_alpha
+        alpha = cal.model_gp_.alpha_
+        R_mm[np.diag_indices(N)] += alpha
         self.A = np.kron(gm.sigma2_m, R_mm)
-        self.D_fixed = np.kron(gm.sigma2_d, gm.kernel_d(gm.X_e)) + np.kron(
-            np.diag(gm.noise), np.eye(n)
+        self.D_fixed = (
+            np.kron(gm.sigma2_d, gm.kernel_d(gm.X_e))
+            + np.kron(np.diag(gm.noise), np.eye(n))
+            + np.kron(gm.sigma2_m, alpha * np.eye(n))
         )
         I = np.eye(q)
         H_m = regression_basis(gm.X_m, gm.regression_m)

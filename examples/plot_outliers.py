@@ -47,10 +47,11 @@ def summary(cal, label):
 summary(cal, "with the outliers")
 
 # %%
-# The noise variances are far too large, some eight times on the
-# displacement and tens of millions of times on the energy, whose true
-# noise is tiny: the Gaussian noise model has absorbed the outliers. The
-# posterior of E is accordingly wide.
+# The noise variances are far too large, about eight times on the
+# displacement and some 25 million times on the energy, whose true noise is
+# tiny: the Gaussian noise model has absorbed the outliers. The posterior
+# of E is accordingly wide (standard deviation 10 GPa), though it still
+# contains E*.
 #
 # Which measurements fall outside the 95 % predictive interval?
 # -------------------------------------------------------------
@@ -69,9 +70,10 @@ for i in flagged:
     print(f"  #{i}: F = {data.X_obs[i, 0]:5.0f} N, standardised residuals {z.round(1)}")
 
 # %%
-# Both outliers are flagged, on both responses, even though the inflated
-# noise widens the interval. With 80 readings and a 95 % interval, a few
-# regular readings would also be flagged by chance; none is here.
+# Both outliers are flagged, on both responses, 3.8 to 4.3 predictive
+# standard deviations away from the mean, even though the inflated noise
+# widens the interval. With 80 readings and a 95 % interval, a few regular
+# readings would also be flagged by chance; none is here.
 #
 # The calibrated predictions with the flagged measurements circled (thesis
 # Fig. 4.31): from left to right the model, the discrepancy and a new
@@ -107,9 +109,9 @@ plt.show()
 
 # %%
 # The bands of a new measurement (right) are wide because the fitted noise
-# is; the discrepancy (centre) stays flat and narrow: the outliers went
-# into the noise, not into the discrepancy, which is the smooth part of the
-# mismatch between model and beam.
+# is; the discrepancy (centre) stays flat, with a much narrower band: the
+# outliers went into the noise, not into the discrepancy, which is the
+# smooth part of the mismatch between model and beam.
 #
 # Calibration without the flagged measurements
 # --------------------------------------------
@@ -121,11 +123,17 @@ summary(clean, "without them")
 
 # %%
 # Without the outliers, the noise variances are back to the right order of
-# magnitude, and the posterior of E shrinks by a factor of several hundred.
-# The nearly noise-free energy now dominates: as in the noise-free
-# single-parameter example, E is pinned at the effective modulus of the
-# spring-supported beam, about 3 % below E* (the spring is confounded with
-# E), so the narrow posterior misses E*.
+# magnitude (1.6 and 0.7 times the true ones), and the posterior standard
+# deviation of E shrinks from 10.0 to 2.2 GPa, by a factor of 4.6. E* lies
+# inside both 95 % intervals. The nearly noise-free energy now dominates,
+# and, as in the noise-free single-parameter example, the spring is
+# confounded with E: the mean (68525 MPa) lies between the effective
+# modulus of the spring-supported beam, about 3 % below E*, and E*. The
+# width of the posterior is set mainly by the lower end of the discrepancy
+# variance in the calibrator's default ``discrepancy_prior`` (1 % of each
+# response's simulated variance), where both fitted variances sit; with
+# ``discrepancy_prior={"variance": None}`` the same data give 67866 ± 18
+# MPa, an interval that misses E*.
 
 L, I, K = 3000.0, 6.75e8, 1.5e12
 E_effective = data.theta_true[0] / (1 + 3 * data.theta_true[0] * I / (K * L))

@@ -13,7 +13,9 @@ def test_quick_start_runs():
     for block in blocks:
         exec(compile(block, "README.md", "exec"), namespace)
     cal = namespace["cal"]
-    assert abs(cal.theta_mean_[0] / 67.9e3 - 1) < 0.01  # as the comment says
+    assert abs(cal.theta_mean_[0] / 67.8e3 - 1) < 0.01  # as the comments say
+    sd = cal.theta_cov_[0, 0] ** 0.5
+    assert 2.0e3 < sd < 2.8e3 and abs(cal.theta_mean_[0] - 70e3) < sd
     assert namespace["std"].shape == (3, 2)
     gp = namespace["gp"]
     assert gp.sigma2_.shape == (2, 2)
