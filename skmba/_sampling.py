@@ -364,37 +364,15 @@ def _merge_moments(counts, means, m2s):
     return n, mean, m2
 
 
-def _run_chain(
-    log_density,
-    start,
-    start_value,
-    chol,
-    *,
-    n_samples,
-    burn_in,
-    adapt,
-    seed,
-    chain,
-    verbose,
-):
+def _run_chain(*args, **kwargs):
     """One chain: adaptive burn-in, then ``n_samples`` draws with a fixed kernel.
 
-    BLAS is held to one thread: the chain's arithmetic is then the same in
-    any worker (process or thread) of any joblib backend.
+    Arguments as :func:`_run_chain_body`. BLAS is held to one thread: the
+    chain's arithmetic is then the same in any worker (process or thread) of
+    any joblib backend.
     """
     with threadpool_limits(limits=1, user_api="blas"):
-        return _run_chain_body(
-            log_density,
-            start,
-            start_value,
-            chol,
-            n_samples=n_samples,
-            burn_in=burn_in,
-            adapt=adapt,
-            seed=seed,
-            chain=chain,
-            verbose=verbose,
-        )
+        return _run_chain_body(*args, **kwargs)
 
 
 def _run_chain_body(
