@@ -33,6 +33,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import linalg
 
+#: ``log(2 pi)``, the constant of every Gaussian log-density in the package.
+LOG_2PI = float(np.log(2.0 * np.pi))
 _GIB = float(2**30)
 
 
