@@ -103,6 +103,22 @@ def test_import_skmba_does_not_import_matplotlib():
     assert out.stdout.strip() == "False"
 
 
+def test_public_names():
+    import skmba.plotting
+
+    assert skmba.plotting.__all__ == [
+        "plot_calibrated_components",
+        "plot_convergence",
+        "plot_criterion_by_size",
+        "plot_criterion_vs_bias",
+        "plot_gp_prediction",
+        "plot_posterior",
+        "plot_traces",
+    ]
+    for name in skmba.plotting.__all__:
+        assert getattr(skmba.plotting, name).__module__.startswith("skmba.plotting.")
+
+
 def test_missing_matplotlib_says_how_to_install(monkeypatch):
     monkeypatch.setitem(sys.modules, "matplotlib.pyplot", None)
     with pytest.raises(ImportError, match=r"pip install skmba\[plot\]"):

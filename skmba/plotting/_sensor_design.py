@@ -1,0 +1,362 @@
+"""Criteria of a preposterior sensor design.
+
+:func:`plot_criterion_by_size` (best and worst criterion per number of
+sensors, thesis Fig. 6.7a), :func:`plot_criterion_vs_bias` (criterion
+against identification bias, Figs. 6.3, 6.4, 6.6) and
+:func:`plot_convergence` (running criterion over the Monte Carlo loop,
+Fig. 6.5), from a fitted :class:`~skmba.PreposteriorDesigner`.
+
+Examples
+--------
+>>> import numpy as np
+>>> from skmba.plotting._sensor_design import _best_by_size, _subset_label
+>>> subsets = [(0,), (1,), (0, 1)]
+>>> _best_by_size(subsets, np.array([2.0, 1.0, 0.5]))
+{1: 1, 2: 2}
+>>> _subset_label(subsets[2], ["left", "right"])
+'left, right'
+"""
+
+import textwrap
+
+import numpy as np
+from sklearn.exceptions import NotFittedError
+
+from skmba.plotting._common import import_pyplot, labels, single_axes
+
+__all__ = ["plot_convergence", "plot_criterion_by_size", "plot_criterion_vs_bias"]
+
+# The most configurations plot_convergence draws by default.
+_MAX_CURVES = 5
+
+
+def plot_criterion_by_size(designer, *, names=None, ax=None):
+    """Plot the best and worst criterion against the number of sensors.
+
+    For each subset size, the minimum (dashed, circles) and maximum (solid,
+    crosses) preposterior criterion over the evaluated subsets of that size
+    (thesis Fig. 6.7a); each minimum is annotated with its subset. Where the
+    minimum stops decreasing, more sensors buy little identifiability.
+
+    Parameters
+    ----------
+    designer : PreposteriorDesigner
+        Fitted (``subsets_``, ``scores_``, ``n_responses_``).
+    names : list of str, default=None
+        Names of the ``q`` responses (``y0, y1, ...``).
+    ax : Axes, default=None
+        Where to draw; None creates a figure.
+
+    Returns
+    -------
+    ax : Axes
+
+    Examples
+    --------
+    >>> import matplotlib
+    >>> matplotlib.use("Agg")
+    >>> from itertools import combinations
+    >>> from types import SimpleNamespace
+    >>> import numpy as np
+    >>> from skmba.plotting import plot_criterion_by_size
+    >>> subsets = [s for k in (1, 2, 3) for s in combinations(range(3), k)]
+    >>> scores = np.array([3.0, 2.0, 4.0, 1.5, 2.5, 1.8, 1.2])
+    >>> designer = SimpleNamespace(subsets_=subsets, scores_=scores,
+    ...                            n_responses_=3)
+    >>> ax = plot_criterion_by_size(designer, names=["A", "B", "C"])
+    >>> [t.get_text() for t in ax.texts]
+    ['B', 'A, B', 'A, B, C']
+    """
+    subsets, scores, q = _designer_arrays(designer)
+    names = labels(names, q, "y", "responses")
+    ax = single_axes(ax, (6.4, 4.4))
+    sizes = np.array([len(s) for s in subsets])
+    best = _best_by_size(subsets, scores)
+    levels = np.array(list(best))
+    minima = np.array([scores[best[s]] for s in levels])
+    maxima = np.array([scores[sizes == s].max() for s in levels])
+    ax.plot(levels, maxima, "-x", color="C3", markersize=8, label="maximum")
+    ax.plot(levels, minima, "--o", color="C0", markersize=6, label="minimum (best)")
+    for size, value in zip(levels, minima, strict=True):
+        ax.annotate(
+            _subset_label(subsets[best[size]], names, width=24),
+            (size, value),
+            xytext=(0, -10),
+            textcoords="offset points",
+            ha="center",
+            va="top",
+            fontsize="x-small",
+            color="C0",
+        )
+    ax.set_xticks(levels)
+    ax.margins(x=0.12, y=0.15)
+    ax.set_xlabel("number of sensors (responses)")
+    ax.set_ylabel(_criterion_label(designer))
+    ax.legend()
+    return ax
+
+
+def plot_criterion_vs_bias(
+    scores, bias, *, subsets=None, names=None, annotate=False, ax=None
+):
+    """Scatter the preposterior criterion against the identification bias.
+
+    Each point is a sensor configuration: its preposterior criterion
+    (before any measurement) against the bias of the calibration made with
+    it (thesis Figs. 6.3, 6.4, 6.6). Points along a rising line mean that the
+    criterion ranks the configurations right; a point at the top left is a
+    good configuration the criterion missed (type II error), one at the
+    bottom right a poor configuration it favoured (type I error).
+
+    Parameters
+    ----------
+    scores : array-like of shape (n_subsets,) or PreposteriorDesigner
+        Criterion of each configuration, or a fitted designer (its
+        ``scores_``, and ``subsets_`` when ``subsets`` is None).
+    bias : array-like of shape (n_subsets,)
+        Identification bias of each configuration, e.g. ``|E[θ] − θ*| /
+        θ*`` from a calibration with those responses.
+    subsets : list of tuple of int, default=None
+        The response indices of each configuration: points are then coloured
+        by the number of sensors.
+    names : list of str, default=None
+        Names of the responses, for the labels (``y0, y1, ...``).
+    annotate : bool, default=False
+        Label each point with its responses (needs ``subsets``).
+    ax : Axes, default=None
+        Where to draw; None creates a figure.
+
+    Returns
+    -------
+    ax : Axes
+
+    Examples
+    --------
+    >>> import matplotlib
+    >>> matplotlib.use("Agg")
+    >>> import numpy as np
+    >>> from skmba.plotting import plot_criterion_vs_bias
+    >>> ax = plot_criterion_vs_bias([3.0, 2.0, 1.0], [0.05, 0.03, 0.01],
+    ...                             subsets=[(0,), (1,), (0, 1)],
+    ...                             names=["A", "B"], annotate=True)
+    >>> [t.get_text() for t in ax.get_legend().get_texts()]
+    ['1 sensor', '2 sensors']
+    """
+    scores, bias, subsets, names = _configurations(
+        scores, bias, subsets, names, annotate
+    )
+    ax = single_axes(ax, (6.4, 4.6))
+    if subsets is None:
+        ax.scatter(bias, scores, marker="x", color="C0", label="configurations")
+    else:
+        _scatter_by_size(ax, bias, scores, subsets)
+        if annotate:
+            for subset, x, y in zip(subsets, bias, scores, strict=True):
+                ax.annotate(
+                    "".join(names[k] for k in subset)
+                    if all(len(names[k]) == 1 for k in subset)
+                    else _subset_label(subset, names),
+                    (x, y),
+                    xytext=(3, 3),
+                    textcoords="offset points",
+                    fontsize="x-small",
+                )
+    ax.set_xlabel("identification bias")
+    ax.set_ylabel("preposterior criterion, lower is better")
+    ax.legend(fontsize="small")
+    return ax
+
+
+def plot_convergence(designer, *, subsets=None, names=None, ax=None):
+    """Plot the running preposterior criterion over the Monte Carlo loop.
+
+    A flat curve means that the number of Monte Carlo replicates
+    ``n_mc`` suffices to rank the configurations (thesis Fig. 6.5).
+
+    Parameters
+    ----------
+    designer : PreposteriorDesigner
+        Fitted (``subsets_``, ``scores_``, ``convergence_``,
+        ``n_responses_``).
+    subsets : list of tuple of int, default=None
+        The configurations to draw (as response indices, in any order); by
+        default the best one of each size, at most 5 (sizes evenly spread).
+    names : list of str, default=None
+        Names of the ``q`` responses (``y0, y1, ...``).
+    ax : Axes, default=None
+        Where to draw; None creates a figure.
+
+    Returns
+    -------
+    ax : Axes
+
+    Examples
+    --------
+    >>> import matplotlib
+    >>> matplotlib.use("Agg")
+    >>> from types import SimpleNamespace
+    >>> import numpy as np
+    >>> from skmba.plotting import plot_convergence
+    >>> running = np.array([[2.0, 1.0, 0.5], [2.2, 1.1, 0.6], [2.1, 1.05, 0.55]])
+    >>> designer = SimpleNamespace(subsets_=[(0,), (1,), (0, 1)],
+    ...                            scores_=running[-1], convergence_=running,
+    ...                            n_responses_=2)
+    >>> ax = plot_convergence(designer, names=["A", "B"])
+    >>> [line.get_label() for line in ax.get_lines()]
+    ['B', 'A, B']
+    """
+    all_subsets, scores, q = _designer_arrays(designer, ("convergence_",))
+    names = labels(names, q, "y", "responses")
+    running = np.asarray(designer.convergence_, dtype=float)
+    if running.ndim != 2 or running.shape[1] != len(all_subsets):
+        raise ValueError(
+            f"convergence_ has shape {running.shape}; expected (n_mc, "
+            f"{len(all_subsets)})."
+        )
+    if subsets is None:
+        chosen = _best_of_spread_sizes(all_subsets, scores)
+    else:
+        chosen = _indices_of(subsets, all_subsets)
+    ax = single_axes(ax, (6.4, 4.2))
+    replicates = np.arange(1, len(running) + 1)
+    for n, index in enumerate(chosen):
+        ax.plot(
+            replicates,
+            running[:, index],
+            color=f"C{n % 10}",
+            label=_subset_label(all_subsets[index], names),
+        )
+    ax.set_xlim(1, max(len(running), 2))
+    ax.set_xlabel("Monte Carlo replicates")
+    ax.set_ylabel("running " + _criterion_label(designer).split(",")[0])
+    ax.legend(fontsize="small", title="responses")
+    return ax
+
+
+def _subset_label(subset, names, width=None):
+    """The names of a subset's responses, wrapped at ``width`` characters."""
+    text = ", ".join(names[k] for k in subset)
+    if width:
+        text = "\n".join(textwrap.wrap(text, width=width))
+    return text
+
+
+def _designer_arrays(designer, extra=()):
+    """A fitted designer's subsets, scores (n_subsets,) and response count."""
+    attributes = ("subsets_", "scores_", "n_responses_", *extra)
+    missing = [a for a in attributes if getattr(designer, a, None) is None]
+    if missing and callable(getattr(designer, "fit", None)):
+        raise NotFittedError(
+            f"This {type(designer).__name__} is not fitted (no "
+            f"{', '.join(missing)}): call fit before plotting."
+        )
+    if missing:
+        raise TypeError(
+            f"Expected a fitted PreposteriorDesigner with the attributes "
+            f"{', '.join(attributes)}; got an object of type "
+            f"{type(designer).__name__}."
+        )
+    subsets = [tuple(int(k) for k in s) for s in designer.subsets_]
+    scores = np.asarray(designer.scores_, dtype=float).reshape(-1)
+    if len(scores) != len(subsets):
+        raise ValueError(
+            f"scores_ has {len(scores)} entries but there are {len(subsets)} subsets."
+        )
+    return subsets, scores, int(designer.n_responses_)
+
+
+def _criterion_label(designer):
+    criterion = getattr(designer, "criterion", None)
+    suffix = f" ({criterion})" if isinstance(criterion, str) else ""
+    return f"preposterior criterion{suffix}, lower is better"
+
+
+def _best_by_size(subsets, scores):
+    """{size: index of the best subset of that size}, sizes ascending."""
+    sizes = np.array([len(s) for s in subsets])
+    best = {}
+    for size in np.unique(sizes):
+        members = np.flatnonzero(sizes == size)
+        best[int(size)] = int(members[np.argmin(scores[members])])
+    return best
+
+
+def _configurations(scores, bias, subsets, names, annotate):
+    """Checked scores, bias, subsets and names of plot_criterion_vs_bias."""
+    q = None
+    if hasattr(scores, "scores_"):
+        designer_subsets, scores, q = _designer_arrays(scores)
+        if subsets is None:
+            subsets = designer_subsets
+    try:
+        scores = np.asarray(scores, dtype=float).reshape(-1)
+        bias = np.asarray(bias, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise TypeError("scores and bias must be arrays of numbers.") from None
+    if len(scores) != len(bias):
+        raise ValueError(
+            f"scores has {len(scores)} entries and bias {len(bias)}; give one "
+            "of each per configuration."
+        )
+    if subsets is not None:
+        subsets = [tuple(int(k) for k in s) for s in subsets]
+        if len(subsets) != len(scores):
+            raise ValueError(
+                f"subsets has {len(subsets)} entries but scores {len(scores)}."
+            )
+        if q is None:
+            q = max(max(s) for s in subsets) + 1 if names is None else len(names)
+        names = labels(names, q, "y", "responses")
+    elif annotate:
+        raise ValueError("annotate=True needs the subsets.")
+    return scores, bias, subsets, names
+
+
+def _scatter_by_size(ax, bias, scores, subsets):
+    """The configurations, one colour per number of sensors."""
+    sizes = np.array([len(s) for s in subsets])
+    levels = np.unique(sizes)
+    cmap = import_pyplot().get_cmap("viridis")
+    for n, size in enumerate(levels):
+        members = sizes == size
+        ax.scatter(
+            bias[members],
+            scores[members],
+            marker="o",
+            s=30,
+            color=cmap(n / max(len(levels) - 1, 1)),
+            edgecolors="k",
+            linewidths=0.4,
+            label=f"{size} sensor{'s' if size > 1 else ''}",
+        )
+
+
+def _best_of_spread_sizes(subsets, scores):
+    """Indices of the best subset of each size, at most five sizes evenly
+    spread from the smallest to the largest."""
+    best = _best_by_size(subsets, scores)
+    sizes = list(best)
+    if len(sizes) > _MAX_CURVES:
+        spread = np.linspace(0, len(sizes) - 1, _MAX_CURVES)
+        sizes = [sizes[i] for i in np.unique(np.round(spread).astype(int))]
+    return [best[s] for s in sizes]
+
+
+def _indices_of(subsets, evaluated):
+    """Index in ``evaluated`` of each subset (its indices in any order)."""
+    lookup = {frozenset(s): i for i, s in enumerate(evaluated)}
+    chosen = []
+    for subset in subsets:
+        try:
+            key = frozenset(int(k) for k in subset)
+        except TypeError:
+            raise TypeError(
+                "subsets must be a list of tuples of response indices, "
+                f"e.g. [(0,), (0, 2)]; got the entry {subset!r}."
+            ) from None
+        if key not in lookup:
+            raise ValueError(
+                f"subset {tuple(subset)} was not evaluated by the designer."
+            )
+        chosen.append(lookup[key])
+    return chosen

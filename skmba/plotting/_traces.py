@@ -1,0 +1,140 @@
+"""MCMC trace plots: :func:`plot_traces`.
+
+One panel per calibration parameter, one line per chain, with the
+rank-normalised split R-hat of the parameter in the panel's title (thesis
+Fig. 4.21).
+
+Examples
+--------
+>>> from types import SimpleNamespace
+>>> import numpy as np
+>>> from skmba.plotting._traces import _chains_of
+>>> fitted = SimpleNamespace(theta_chains_=np.zeros((4, 300, 2)))
+>>> _chains_of(fitted).shape
+(4, 300, 2)
+"""
+
+import numpy as np
+from sklearn.exceptions import NotFittedError
+
+from skmba._sampling import split_rhat
+from skmba.plotting._common import (
+    axes_grid,
+    axis_label,
+    check_true_value,
+    labels,
+    unit_labels,
+)
+
+__all__ = ["plot_traces"]
+
+
+def plot_traces(
+    chains_or_calibrator, *, names=None, units=None, true_value=None, ax=None
+):
+    """Plot MCMC trace plots: one panel per parameter, one line per chain.
+
+    Well-mixed chains overlap as stationary noise around the same level
+    (thesis Fig. 4.21); a chain stuck apart, a trend or long excursions
+    mean that more burn-in or more draws are needed. Each panel's title
+    gives the rank-normalised split R-hat (below 1.01 when mixed).
+
+    Parameters
+    ----------
+    chains_or_calibrator : ModularBayesCalibrator or array-like of shape \
+            (n_chains, n_draws, r)
+        A calibrator fitted with ``sampler="mcmc"`` (its ``theta_chains_``)
+        or the draws of each chain after burn-in.
+    names, units : list of str, default=None
+        Names and units of the ``r`` parameters.
+    true_value : array-like of shape (r,), default=None
+        The true parameters, drawn as horizontal lines.
+    ax : Axes or array of Axes of shape (r,), default=None
+        Where to draw; None creates a figure.
+
+    Returns
+    -------
+    fig : Figure
+
+    Raises
+    ------
+    ValueError
+        If the calibrator has no chains (one parameter, quadrature posterior)
+        or the array is not 3-D.
+
+    Examples
+    --------
+    >>> import matplotlib
+    >>> matplotlib.use("Agg")
+    >>> import numpy as np
+    >>> from skmba.plotting import plot_traces
+    >>> chains = np.random.default_rng(0).normal(size=(4, 300, 2))
+    >>> fig = plot_traces(chains, names=["E", "I"])
+    >>> len(fig.axes), len(fig.axes[0].lines)
+    (2, 4)
+    """
+    chains = _chains_of(chains_or_calibrator)
+    n_chains, n_draws, r = chains.shape
+    names = labels(names, r, "θ", "parameters")
+    units = unit_labels(units, r, "parameters")
+    true_value = check_true_value(true_value, r)
+    axes = axes_grid(ax, (r, 1), (8.0, 0.8 + 2.2 * r), sharex=True)[:, 0]
+    draws = np.arange(1, n_draws + 1)
+    for p, a in enumerate(axes):
+        for c in range(n_chains):
+            a.plot(
+                draws,
+                chains[c, :, p],
+                linewidth=0.6,
+                alpha=0.75,
+                color=f"C{c % 10}",
+                label=f"chain {c + 1}",
+            )
+        if true_value is not None:
+            a.axhline(true_value[p], color="k", linestyle="--", label="true")
+        a.set_ylabel(axis_label(names[p], units[p]))
+        a.set_title(
+            f"{names[p]}: split R-hat = {split_rhat(chains[:, :, p]):.3f}",
+            fontsize="small",
+        )
+        a.set_xlim(1, n_draws)
+    axes[-1].set_xlabel("draw (after burn-in)")
+    axes[0].legend(fontsize="small", ncols=min(n_chains + 1, 6), loc="upper right")
+    return axes[0].figure
+
+
+def _chains_of(chains_or_calibrator):
+    """The chains (n_chains, n_draws, r) of a fitted calibrator or array."""
+    obj = chains_or_calibrator
+    if hasattr(obj, "theta_chains_"):
+        chains = obj.theta_chains_
+    elif hasattr(obj, "theta_nodes_"):
+        raise ValueError(
+            "This calibrator has no MCMC chains: its one-parameter posterior "
+            "was computed by quadrature. Fit it with sampler='mcmc' to get "
+            "chains, or plot the posterior with plot_posterior."
+        )
+    elif hasattr(obj, "theta_samples_"):
+        raise ValueError(
+            "This calibrator has no theta_chains_ attribute: pass the chains "
+            "as an array of shape (n_chains, n_draws, r) instead."
+        )
+    elif callable(getattr(obj, "fit", None)):
+        raise NotFittedError(
+            f"This {type(obj).__name__} is not fitted: call fit with "
+            "sampler='mcmc' before plotting its chains."
+        )
+    else:
+        chains = obj
+    try:
+        chains = np.asarray(chains, dtype=float)
+    except (TypeError, ValueError):
+        raise TypeError(
+            "plot_traces needs a fitted ModularBayesCalibrator or an array of "
+            f"shape (n_chains, n_draws, r); got {type(obj).__name__}."
+        ) from None
+    if chains.ndim != 3:
+        raise ValueError(
+            f"chains must have shape (n_chains, n_draws, r); got {chains.shape}."
+        )
+    return chains
