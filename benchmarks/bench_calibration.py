@@ -164,24 +164,24 @@ def cantilever_end_to_end(n_sim, n_obs, n_samples, burn_in):
 class DenseGlobalLikelihood:
     """Eq. 4.30 with the full ``(N + n) q`` covariance factored per theta.
 
-    Built from the same fitted pieces as ``cal._global`` (standardised
+    Built from the same fitted pieces as ``cal.global_model_`` (standardised
     units): ``V_Y = [[A, B], [B', D]]`` with ``A = Sigma_m ⊗ (R_m(D_m, D_m) +
     alpha I)``, ``B = Sigma_m ⊗ R_m(D_m, D_e)``, ``D = Lambda ⊗ I + Sigma_m ⊗
     (R_m(D_e, D_e) + alpha I) + Sigma_d ⊗ R_d(X_e, X_e)`` (``alpha`` the
-    emulator's nugget ``alpha_``) and ``H_Y = [[I ⊗ H_m, 0],
+    emulator's nugget ``nugget_``) and ``H_Y = [[I ⊗ H_m, 0],
     [I ⊗ H_m(D_e), I ⊗ H_d]]``. The blocks that do not depend on theta are
     assembled once; everything of size ``(N + n) q`` that does is rebuilt and
     factored at every call.
     """
 
     def __init__(self, cal):
-        gm = cal._global
+        gm = cal.global_model_
         self.gm = gm
         N, n, q = gm.N, gm.n, gm.q
         self.N, self.n, self.q = N, n, q
         self.M = (N + n) * q
         R_mm = gm.kernel_m(gm.X_m)
-        alpha = cal.model_gp_.alpha_
+        alpha = cal.model_gp_.nugget_
         R_mm[np.diag_indices(N)] += alpha
         self.A = np.kron(gm.sigma2_m, R_mm)
         self.D_fixed = (
@@ -244,11 +244,11 @@ def likelihood_timing(cal, label, n_thetas=N_THETAS, seed=0):
     factorisations are slower with several threads, much slower when another
     process occupies a core.
     """
-    gm = cal._global
+    gm = cal.global_model_
     rng = np.random.default_rng(seed)
     draws = cal.theta_samples_
     idx = rng.choice(len(draws), size=n_thetas, replace=False)
-    thetas = cal._std_theta(draws[idx])
+    thetas = (draws[idx] - cal.theta_offset_) / cal.theta_scale_
     dense = DenseGlobalLikelihood(cal)
     print(
         f"(b) Log-likelihood per theta, {label}: N={gm.N}, n={gm.n}, q={gm.q}, "

@@ -173,7 +173,7 @@ def _emulator_accuracy(cal, data, seed, n_test=200):
     Zs = np.hstack(
         [
             (X - cal.X_mean_) / cal.X_scale_,
-            (theta - cal.theta_mean_sim_) / cal.theta_scale_,
+            (theta - cal.theta_offset_) / cal.theta_scale_,
         ]
     )
     pred = cal.model_gp_.predict(Zs) * cal.y_scale_ + cal.y_mean_

@@ -41,7 +41,17 @@ from sklearn.base import clone
 from sklearn.exceptions import ConvergenceWarning
 from sklearn.utils import check_random_state
 
-from skmba._linalg import FactorizationError, cholesky, log_det_from_cholesky
+from skmba._gp import default_kernel
+from skmba._linalg import (
+    FEWER_FIELD_DATA,
+    FLOAT_BYTES,
+    LOG_2PI,
+    FactorizationError,
+    check_memory,
+    cholesky,
+    log_det_from_cholesky,
+)
+from skmba._regression import regression_basis
 
 DISCREPANCY_OPTIMIZERS = ("fmin_l_bfgs_b", "differential_evolution")
 #: Thesis Table 6.2: ranges of the discrepancy roughness (per standardised
@@ -53,7 +63,6 @@ _LOG_REL_NOISE = (np.log(1e-8), np.log(10.0))
 # each residual's standard deviation.
 _LOG_REL_SD = (np.log(1e-5), np.log(1e2))
 _CORR_FREE = (-1e2, 1e2)
-_LOG_2PI = np.log(2.0 * np.pi)
 
 
 def check_interval(value, name, size, *, lower=None):
@@ -123,6 +132,21 @@ def check_discrepancy_ranges(spec, d, q, name="discrepancy_prior"):
             "None to keep the kernel's own roughness_bounds."
         )
     return out
+
+
+def ranges_text(ranges):
+    """The variance range of :func:`check_discrepancy_ranges`, for a log line.
+
+    Examples
+    --------
+    >>> ranges_text({"roughness": None, "variance": None})
+    'none'
+    """
+    variance = ranges["variance"]
+    if variance is None:
+        return "none"
+    lo, hi = (np.array2string(v, precision=3) for v in variance)
+    return f"{lo} to {hi}"
 
 
 def bound_roughness(kernel, low, high, name="discrepancy_prior"):
@@ -199,8 +223,11 @@ class DiscrepancyFit:
     (2, 2)
     """
 
-    def __init__(self, kernel, X, Y, H, V_fixed, variance_bounds=None):
+    def __init__(
+        self, kernel, X, Y, H, V_fixed, variance_bounds=None, *, regression=None
+    ):
         self.kernel, self.X, self.Y, self.H, self.V_fixed = kernel, X, Y, H, V_fixed
+        self.regression = regression
         self.n, self.q = Y.shape
         self.scale = np.maximum(Y.std(axis=0), 1e-8 * max(np.abs(Y).max(), 1e-300))
         self.rows, self.cols = np.tril_indices(self.q, -1)
@@ -284,7 +311,7 @@ class DiscrepancyFit:
         Q, G = linalg.qr(Xw, mode="economic")
         beta = linalg.solve_triangular(G, Q.T @ yw)
         rw = yw - Xw @ beta
-        ll = -0.5 * (n * q * _LOG_2PI + log_det_from_cholesky(C) + rw @ rw)
+        ll = -0.5 * (n * q * LOG_2PI + log_det_from_cholesky(C) + rw @ rw)
         self.last = (k, sigma2, lam, beta.reshape(q, -1).T)
         if not eval_gradient:
             return ll
@@ -403,3 +430,102 @@ class DiscrepancyFit:
         self.kernel_, self.sigma2, self.noise, self.beta = self.last
         self.params = best.x
         return self
+
+
+def discrepancy_kernel(kernel, X):
+    """The discrepancy correlation: a clone of ``kernel``, or the default.
+
+    None gives the anisotropic :class:`~skmba.kernels.Gauss` scaled to the
+    standardised field inputs ``X`` (:func:`~skmba._gp.default_kernel`).
+
+    Examples
+    --------
+    >>> from skmba.kernels import Exp
+    >>> discrepancy_kernel(Exp(2.0), np.zeros((3, 1))).roughness
+    2.0
+    """
+    return default_kernel(X) if kernel is None else clone(kernel)
+
+
+def fit_discrepancy(
+    X_e,
+    residual,
+    V_fixed,
+    *,
+    kernel=None,
+    regression="constant",
+    ranges=None,
+    noise=True,
+    optimizer="fmin_l_bfgs_b",
+    n_restarts=0,
+    random_state=None,
+    start=None,
+    max_iter=None,
+    responses=None,
+):
+    """Module 2b (Eq. 4.19): discrepancy GP and noise by maximum likelihood.
+
+    Parameters
+    ----------
+    X_e : ndarray of shape (n, d)
+        Standardised field inputs.
+    residual : ndarray of shape (n, q)
+        Standardised field data minus the prior-integrated emulator mean.
+    V_fixed : ndarray of shape (n q, n q)
+        The prior-integrated emulator covariance.
+    kernel : sklearn Kernel or None
+        Discrepancy correlation (see :func:`discrepancy_kernel`).
+    regression : {"constant", "linear", "quadratic"}
+    ranges : dict or None
+        As returned by :func:`check_discrepancy_ranges` (for all responses);
+        the likelihood is maximised within them.
+    noise : bool
+        Estimate the noise; False holds it at a negligible nugget.
+    optimizer : {"fmin_l_bfgs_b", "differential_evolution"}
+    n_restarts : int
+    random_state : int or None
+    start : callable, default=None
+        ``start(fit) -> packed parameters``: the first starting point (the
+        sensor designer passes the hyperparameters that generated its
+        synthetic data).
+    max_iter : int, default=None
+        Bound on the optimiser's iterations per start.
+    responses : sequence of int, default=None
+        The responses (columns of the simulations) that ``residual`` holds,
+        to restrict the variance ranges; None for all.
+
+    Returns
+    -------
+    DiscrepancyFit
+        The optimised fit (``kernel_``, ``sigma2``, ``noise``, ``beta``).
+    """
+    kernel_d = discrepancy_kernel(kernel, X_e)
+    if ranges is not None and ranges["roughness"] is not None:
+        kernel_d = bound_roughness(kernel_d, *ranges["roughness"])
+    variance = None if ranges is None else ranges["variance"]
+    if variance is not None and responses is not None:
+        variance = tuple(v[list(responses)] for v in variance)
+    nq, q = residual.size, residual.shape[1]
+    n_params = kernel_d.n_dims + q + q * (q + 1) // 2
+    # Each likelihood evaluation holds about eight nq x nq matrices (the
+    # covariance, its Cholesky factor and inverse, the gradient weights
+    # and their reshapes).
+    check_memory(
+        FLOAT_BYTES * 8 * nq**2,
+        f"The module-2 likelihood (a {nq} x {nq} field-data covariance, "
+        f"{n_params} parameters)",
+        FEWER_FIELD_DATA,
+    )
+    H_d = regression_basis(X_e, regression)
+    disc = DiscrepancyFit(
+        kernel_d, X_e, residual, H_d, V_fixed, variance, regression=regression
+    )
+    if not noise:
+        disc.fix_noise(1e-10)
+    return disc.optimize(
+        optimizer=optimizer,
+        n_restarts=n_restarts,
+        random_state=random_state,
+        start=None if start is None else start(disc),
+        max_iter=max_iter,
+    )

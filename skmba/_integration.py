@@ -33,12 +33,19 @@ Examples
 (array([2.]), array([1.]))
 """
 
+import warnings
+from dataclasses import dataclass
+
 import numpy as np
 from joblib import Parallel, delayed
-from scipy import linalg
 from threadpoolctl import threadpool_limits
 
-from skmba._regression import regression_basis
+from skmba._linalg import FEWER_FIELD_DATA, FLOAT_BYTES, check_memory, n_workers
+
+MODULE2_VARIANCES = ("total", "conditional")
+INTEGRATIONS = ("auto", "quadrature", "qmc")
+#: Default number of integration nodes per rule.
+DEFAULT_NODES = {"quadrature": 32, "qmc": 256}
 
 # Bytes of the (k, n, n) correlation temporaries of one block of nodes: the
 # number of nodes per block is lowered so that they stay below this.
@@ -61,35 +68,16 @@ def nodes_per_block(n, block=64):
     return int(max(1, min(block, BLOCK_BYTES // (3 * 8 * max(n, 1) ** 2))))
 
 
-def _node_block(state, kernel, regression, X_m, X_e, nodes, weights):
+def _node_block(emulator, X_e, nodes, weights):
     """Emulator means (k, n, q) at the nodes and ``sum_k w_k c_k`` (n, n).
 
     BLAS is held to one thread, so that a block gives the same bits in any
     joblib worker (process or thread) as in the calling process.
     """
     with threadpool_limits(limits=1, user_api="blas"):
-        means, corr = _node_block_body(state, kernel, regression, X_m, X_e, nodes)
-        return means, np.tensordot(weights, corr, axes=1)
-
-
-def _node_block_body(state, kernel, regression, X_m, X_e, nodes):
-    n = len(X_e)
-    k = len(nodes)
-    points = np.hstack([np.tile(X_e, (k, 1)), np.repeat(nodes, n, axis=0)])
-    r_cross = kernel(X_m, points)  # (N, k n)
-    h_star = regression_basis(points, regression)
-    g = state.gls
-    Rt = linalg.solve_triangular(state.C, r_cross, lower=True)
-    means = (h_star @ g.beta + Rt.T @ g.residual).reshape(k, n, -1)
-    u = h_star.T - g.H_white.T @ Rt
-    ut = linalg.solve_triangular(g.G, u, trans="T")
-    Rt = Rt.reshape(-1, k, n)
-    ut = ut.reshape(-1, k, n)
-    # Prior correlation at (x_i, θ) and (x_j, θ): the θ-part is exactly 1
-    # for stationary kernels, but evaluate it to accept any kernel.
-    prior = np.stack([kernel(points[i * n : (i + 1) * n]) for i in range(k)])
-    corr = prior - np.einsum("mki,mkj->kij", Rt, Rt) + np.einsum("mki,mkj->kij", ut, ut)
-    return means, corr
+        cond = emulator.conditional(X_e, nodes)
+        corr = cond.universal_correlation()
+        return cond.mean(), np.tensordot(weights, corr, axes=1)
 
 
 def weighted_moments(values, weights):
@@ -115,24 +103,17 @@ def weighted_moments(values, weights):
     return mean, spread
 
 
-def integrate_emulator(
-    state, kernel, regression, X_m, X_e, nodes, weights, *, n_jobs=None, block=64
-):
+def integrate_emulator(emulator, X_e, nodes, weights, *, n_jobs=None, block=64):
     """Prior-integrated emulator moments at the field inputs (Eqs. 4.14-4.17).
 
     Parameters
     ----------
-    state : NoiseFreeLikelihood
-        Fitted module-1 emulator (standardised units).
-    kernel : sklearn Kernel
-        Fitted module-1 correlation.
-    regression : str
-        Module-1 regression basis.
-    X_m : ndarray of shape (N, d + r)
-        Simulation inputs.
+    emulator : Emulator
+        The fitted module-1 emulator (standardised units).
     X_e : ndarray of shape (n, d)
-        Field inputs.
+        Standardised field inputs.
     nodes : ndarray of shape (k, r)
+        Standardised integration nodes.
     weights : ndarray of shape (k,)
     n_jobs : int, default=None
         Blocks of nodes run in parallel through joblib. The blocks are fixed
@@ -160,13 +141,7 @@ def integrate_emulator(
     starts = range(0, len(nodes), block)
     parts = Parallel(n_jobs=n_jobs)(
         delayed(_node_block)(
-            state,
-            kernel,
-            regression,
-            X_m,
-            X_e,
-            nodes[s : s + block],
-            weights[s : s + block],
+            emulator, X_e, nodes[s : s + block], weights[s : s + block]
         )
         for s in starts
     )
@@ -176,3 +151,143 @@ def integrate_emulator(
     for part in parts[1:]:  # in block order, whatever finished first
         cond_corr = cond_corr + part[1]
     return mean, 0.5 * (cond_corr + cond_corr.T), 0.5 * (spread + spread.T)
+
+
+def one_parameter_rule(name, value, r, *, one="quadrature", several):
+    """Resolve a rule that has a one-parameter form (``"auto"`` included).
+
+    ``"auto"`` means ``one`` for one parameter and ``several`` otherwise;
+    ``one`` with several parameters is an error naming the fix.
+
+    Examples
+    --------
+    >>> one_parameter_rule("integration", "auto", 2, several="qmc")
+    'qmc'
+    """
+    if value == "auto":
+        return one if r == 1 else several
+    if value == one and r != 1:
+        raise ValueError(
+            f"{name}={one!r} needs one parameter, the prior has {r}; use "
+            f"{name}={several!r} (or 'auto')."
+        )
+    return value
+
+
+def repair_psd(V):
+    """Symmetrise; add the smallest jitter that makes V positive definite.
+
+    The integrated covariance is positive semi-definite in exact
+    arithmetic; round-off (or a kernel that is not positive definite)
+    can break that. The jitter is ``max(0, -lambda_min) + 1e-10 * mean
+    variance`` on the diagonal, with a warning when it exceeds round-off.
+
+    Examples
+    --------
+    >>> bool(repair_psd(np.eye(2))[0, 0] > 1.0)
+    True
+    """
+    V = 0.5 * (V + V.T)
+    smallest = np.linalg.eigvalsh(V)[0]
+    scale = np.trace(V) / len(V)
+    jitter = max(0.0, -smallest) + 1e-10 * scale
+    if -smallest > 1e-8 * scale:
+        warnings.warn(
+            "The prior-integrated emulator covariance was not positive "
+            f"definite (smallest eigenvalue {smallest:.3g}); a jitter of "
+            f"{jitter:.3g} was added. Consider another model kernel "
+            "(Gauss, Exp) or more integration nodes.",
+            UserWarning,
+            stacklevel=3,
+        )
+    return V + jitter * np.eye(len(V))
+
+
+@dataclass(frozen=True)
+class IntegratedEmulator:
+    """Module 2a: the emulator integrated over the prior at the field inputs.
+
+    Attributes
+    ----------
+    mean : ndarray of shape (n, q)
+        ``m_bar`` (Eq. 4.14), standardised.
+    cov : ndarray of shape (n q, n q)
+        Eq. 4.15, plus the spread of the mean for ``"total"``; repaired to
+        be positive definite.
+    """
+
+    mean: np.ndarray
+    cov: np.ndarray
+
+    def restrict(self, responses):
+        """The moments of some responses (columns) only."""
+        n = len(self.mean)
+        rows = np.concatenate([np.arange(a * n, (a + 1) * n) for a in responses])
+        return IntegratedEmulator(
+            self.mean[:, list(responses)], self.cov[np.ix_(rows, rows)]
+        )
+
+
+def integrate_over_prior(
+    emulator,
+    scaler,
+    prior,
+    X_e,
+    *,
+    rule="auto",
+    n_nodes=None,
+    variance="total",
+    n_jobs=None,
+    random_state=None,
+):
+    """Module 2a at standardised field inputs ``X_e`` (Eqs. 4.14-4.17).
+
+    Parameters
+    ----------
+    emulator : Emulator
+    scaler : Standardizer
+    prior : skmba prior object
+    X_e : ndarray of shape (n, d)
+        Standardised field inputs.
+    rule : {"auto", "quadrature", "qmc"}
+    n_nodes : int, default=None
+        Nodes of the rule (None: :data:`DEFAULT_NODES`).
+    variance : {"total", "conditional"}
+        ``"total"`` adds the spread of the emulator mean over the prior
+        (law of total variance) to Eq. 4.15.
+    n_jobs : int, default=None
+    random_state : int or None
+        Seed of the nodes (QMC).
+
+    Returns
+    -------
+    IntegratedEmulator
+    """
+    rule = one_parameter_rule("integration", rule, prior.dim, several="qmc")
+    nodes, weights = prior.integration_nodes(
+        n_nodes or DEFAULT_NODES[rule], random_state=random_state
+    )
+    n, N, q = len(X_e), emulator.N, emulator.q
+    block = nodes_per_block(n)
+    jobs = min(n_workers(n_jobs), -(-len(nodes) // block))
+    # Blocks in flight (three (k, n, n) correlation temporaries and the
+    # (N, k n) cross-correlations each), the node means, and the nq x nq
+    # covariance with its spread and repair copies.
+    needed = FLOAT_BYTES * (
+        jobs * (3 * block * n * n + 2 * N * block * n)
+        + len(nodes) * n * q
+        + 4 * (n * q) ** 2
+    )
+    check_memory(
+        needed,
+        f"Module 2 (the emulator integrated over the prior at {n} field "
+        f"inputs x {q} responses, {len(nodes)} nodes)",
+        FEWER_FIELD_DATA,
+    )
+    mean, corr, spread = integrate_emulator(
+        emulator, X_e, scaler.theta(nodes), weights, n_jobs=n_jobs
+    )
+    V = np.kron(emulator.sigma2, corr)
+    if variance == "total":
+        V = V + spread
+    return IntegratedEmulator(mean, repair_psd(V))

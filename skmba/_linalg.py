@@ -31,11 +31,20 @@ import os
 from dataclasses import dataclass
 
 import numpy as np
+from joblib import effective_n_jobs
 from scipy import linalg
 
 #: ``log(2 pi)``, the constant of every Gaussian log-density in the package.
 LOG_2PI = float(np.log(2.0 * np.pi))
 _GIB = float(2**30)
+#: Bytes of a float64, for the memory budgets of :func:`check_memory`.
+FLOAT_BYTES = 8
+#: The remedy when the field data make a module's matrices too large.
+FEWER_FIELD_DATA = (
+    "Use fewer field observations or responses (average repeated "
+    "measurements, or calibrate on a subset of the responses), or a smaller "
+    "n_jobs."
+)
 
 
 class FactorizationError(np.linalg.LinAlgError):
@@ -188,6 +197,17 @@ def _available_memory():
         return _sysconf_memory()
     limit = _cgroup_available()
     return available if limit is None else min(available, limit)
+
+
+def n_workers(n_jobs):
+    """Tasks joblib runs at the same time for ``n_jobs`` (and its context).
+
+    Examples
+    --------
+    >>> n_workers(1)
+    1
+    """
+    return max(1, effective_n_jobs(n_jobs))
 
 
 def check_memory(n_bytes, what, remedy):

@@ -1,4 +1,4 @@
-"""Module 3 and 4 of the modular Bayesian approach: the global data model.
+"""Module 3 of the modular Bayesian approach: the posterior of theta.
 
 Simulations ``Y_m`` (N x q at inputs ``[X_m, Theta_m]``) and field data
 ``Y_e`` (n x q at ``X_e``) are jointly Gaussian given the calibration
@@ -28,25 +28,36 @@ matrix and cross-covariances, after which the generalised least squares and
 the kriging predictions of module 4 (Eqs. 4.35-4.45) follow from one QR of a
 small stacked matrix, as in appendix C.
 
-All quantities are in the calibrator's standardised units.
+All of :class:`GlobalModel` is in the calibrator's standardised units.
+:class:`LogPosterior` adds the prior in user units (picklable, one per
+chain), and :func:`posterior_by_quadrature` (one parameter) and
+:func:`posterior_by_mcmc` (any number) return a :class:`PosteriorResult`.
 
 Examples
 --------
 >>> import numpy as np
->>> from skmba._posterior import LOG_2PI
->>> round(float(LOG_2PI), 4)
-1.8379
+>>> from skmba._posterior import PosteriorResult
+>>> result = PosteriorResult.from_draws("mcmc", np.array([[1.0], [3.0]]))
+>>> result.mean, result.cov
+(array([2.]), array([[2.]]))
 """
 
+import copy
+import time
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import linalg
+from scipy import linalg, optimize
 
-from skmba._linalg import FactorizationError, cholesky, log_det_from_cholesky
+from skmba._linalg import (
+    LOG_2PI,
+    FactorizationError,
+    cholesky,
+    log_det_from_cholesky,
+)
 from skmba._regression import regression_basis
-
-LOG_2PI = np.log(2.0 * np.pi)
+from skmba._sampling import check_diagnostics, run_chains
 
 _S_REMEDY = (
     "The field-data covariance (Schur complement of the simulation block) is "
@@ -54,10 +65,21 @@ _S_REMEDY = (
     "larger nugget `alpha` for the emulator, or check that the noise variances "
     "are not all at their lower bound."
 )
+#: The error when the stacked regression of the global model is singular.
+RANK_DEFICIENT = (
+    "The global regression matrix H_Y(theta) is rank deficient: use "
+    "lower-order regressions for the model or the discrepancy."
+)
+SAMPLERS = ("auto", "quadrature", "mcmc")
+# One-parameter posterior quadrature: nodes per pass, most passes, and the
+# nodes that must carry the mass for the posterior to count as resolved.
+_QUADRATURE_NODES = 201
+_QUADRATURE_PASSES = 8
+_RESOLVED_NODES = 40
 
 
 @dataclass
-class _Whitened:
+class Whitened:
     """Per-theta pieces of the block-whitened global model."""
 
     theta: np.ndarray
@@ -73,77 +95,58 @@ class _Whitened:
 
 
 class GlobalModel:
-    """The module-3 likelihood and the module-4 conditional predictions.
+    """The module-3 likelihood of Eq. 4.30 through the Schur complement.
 
     Parameters
     ----------
-    model_fit : NoiseFreeLikelihood
-        The fitted module-1 emulator state (``C``, ``gls``, ``sigma2``).
-    X_m : ndarray of shape (N, d + r)
-        Standardised simulation inputs ``[X_sim, theta_sim]``.
-    Y_m : ndarray of shape (N, q)
-    model_kernel : sklearn Kernel
-        The fitted module-1 correlation.
-    model_regression : str
+    emulator : Emulator
+        The fitted module-1 emulator (simulations, correlation, nugget).
+        Its nugget is on the diagonal of the model correlation at the field
+        inputs as at the simulations, so that the model term of the global
+        covariance is ``Sigma2_m ⊗ (R(D) + alpha I)`` over all its points:
+        the emulator's own uncertainty at a simulated point. It also keeps
+        the Schur complement positive definite when the round-off of
+        ``R_ee - R_me' R_mm^-1 R_me``, scaled by a large ``Sigma2_m``, would
+        exceed a vanishing noise.
     X_e : ndarray of shape (n, d)
+        Standardised field inputs.
     Y_e : ndarray of shape (n, q)
-    discrepancy_kernel : sklearn Kernel
-    discrepancy_regression : str
-    sigma2_d : ndarray of shape (q, q)
-    noise : ndarray of shape (q,)
-    nugget : float, default=0.0
-        The emulator's nugget ``alpha_``. It is on the diagonal of the model
-        correlation at the field inputs as at the simulations, so that the
-        model term of the global covariance is ``Sigma2_m ⊗ (R(D) + alpha
-        I)`` over all its points: the emulator's own uncertainty at a
-        simulated point. It also keeps the Schur complement positive
-        definite when the round-off of ``R_ee - R_me' R_mm^-1 R_me``, scaled
-        by a large ``Sigma2_m``, would exceed a vanishing noise.
+        Standardised field data.
+    discrepancy : DiscrepancyFit
+        The fitted module-2 discrepancy (``kernel_``, ``regression``,
+        ``sigma2``, ``noise``).
 
     Examples
     --------
-    See ``tests/test_posterior.py``, which checks the log-likelihood against
-    the dense Eq. 4.30.
+    ``tests/test_posterior.py`` checks the log-likelihood against the dense
+    Eq. 4.30.
     """
 
-    def __init__(
-        self,
-        model_fit,
-        X_m,
-        Y_m,
-        model_kernel,
-        model_regression,
-        X_e,
-        Y_e,
-        discrepancy_kernel,
-        discrepancy_regression,
-        sigma2_d,
-        noise,
-        nugget=0.0,
-    ):
-        self.X_m, self.Y_m, self.X_e, self.Y_e = X_m, Y_m, X_e, Y_e
-        self.nugget = float(nugget)
-        self.kernel_m, self.regression_m = model_kernel, model_regression
-        self.kernel_d, self.regression_d = discrepancy_kernel, discrepancy_regression
-        self.C_m = model_fit.C
-        self.sigma2_m = model_fit.sigma2
-        self.L_sm = model_fit.sigma2_chol
-        self.sigma2_d = sigma2_d
-        self.noise = np.asarray(noise, dtype=float)
-        N, q = Y_m.shape
+    def __init__(self, emulator, X_e, Y_e, discrepancy):
+        self.emulator = emulator
+        self.X_m, self.Y_m, self.X_e, self.Y_e = emulator.Z, emulator.Y, X_e, Y_e
+        self.nugget = float(emulator.nugget)
+        self.kernel_m, self.regression_m = emulator.kernel, emulator.regression
+        self.kernel_d = discrepancy.kernel_
+        self.regression_d = discrepancy.regression
+        self.C_m = emulator.C
+        self.sigma2_m = emulator.sigma2
+        self.L_sm = emulator.likelihood.sigma2_chol
+        self.sigma2_d = discrepancy.sigma2
+        self.noise = np.asarray(discrepancy.noise, dtype=float)
+        N, q = self.Y_m.shape
         n = len(X_e)
         self.N, self.n, self.q = N, n, q
-        H_m = regression_basis(X_m, model_regression)
-        self.p_m = H_m.shape[1]
-        self.H_d = regression_basis(X_e, discrepancy_regression)
+        self.p_m = emulator.H_white.shape[1]
+        self.H_d = regression_basis(X_e, self.regression_d)
         self.p_d = self.H_d.shape[1]
         self.P = (self.p_m + self.p_d) * q
         # Simulation block, whitened once: L_A = L_sm ⊗ C_m.
-        self.H_m_white = model_fit.gls.H_white  # C_m^-1 H_m
-        self.Y_m_white = linalg.solve_triangular(self.C_m, Y_m, lower=True)
+        self.H_m_white = emulator.H_white  # C_m^-1 H_m
+        self.Y_m_white = emulator.Y_white
         L_sm_inv = linalg.solve_triangular(self.L_sm, np.eye(q), lower=True)
         X_top = np.kron(L_sm_inv, self.H_m_white)  # (Nq, p_m q)
-        y_top = (self._solve_sigma_m(self.Y_m_white)).T.ravel()
+        y_top = (self.solve_sigma_m(self.Y_m_white)).T.ravel()
         Q_t, G_t = linalg.qr(X_top, mode="economic")
         self.G_top = np.hstack([G_t, np.zeros((G_t.shape[0], self.p_d * q))])
         self.b_top = Q_t.T @ y_top
@@ -153,18 +156,15 @@ class GlobalModel:
         self.log_det_A = N * log_det_from_cholesky(self.L_sm) + q * (
             log_det_from_cholesky(self.C_m)
         )
-        R_d = discrepancy_kernel(X_e)
-        self.S_fixed = np.kron(sigma2_d, R_d) + np.kron(np.diag(self.noise), np.eye(n))
+        R_d = self.kernel_d(X_e)
+        self.S_fixed = np.kron(self.sigma2_d, R_d) + np.kron(
+            np.diag(self.noise), np.eye(n)
+        )
         self._cache = None
 
-    # ------------------------------------------------------------ helpers
-    def _solve_sigma_m(self, Z):
+    def solve_sigma_m(self, Z):
         """``Z L_sm^-T`` for Z of shape (., q): whitening across responses."""
         return linalg.solve_triangular(self.L_sm, Z.T, lower=True).T
-
-    def _field_inputs(self, theta, X):
-        theta = np.asarray(theta, dtype=float).reshape(1, -1)
-        return np.hstack([X, np.repeat(theta, len(X), axis=0)])
 
     def whiten(self, theta):
         """Factor the global model at ``theta`` (cached for the last theta)."""
@@ -173,29 +173,21 @@ class GlobalModel:
         if cache is not None and np.array_equal(cache.theta, theta):
             return cache
         N, n, q = self.N, self.n, self.q
-        P_e = self._field_inputs(theta, self.X_e)
-        r = self.kernel_m(self.X_m, P_e)  # (N, n)
-        Rt = linalg.solve_triangular(self.C_m, r, lower=True)
-        T = self.kernel_m(P_e) - Rt.T @ Rt  # emulator correlation given sims
-        T[np.diag_indices(n)] += self.nugget
-        S = self.S_fixed + np.kron(self.sigma2_m, T)
+        cond = self.emulator.conditional(self.X_e, theta[None, :])
+        S = self.S_fixed + np.kron(self.sigma2_m, cond.correlation(self.nugget)[0])
         L_S = cholesky(S, what="Schur complement S(theta)", remedy=_S_REMEDY)
         # Field rows of H_Y minus B'A^-1 times the simulation rows, whitened.
-        H_me = regression_basis(P_e, self.regression_m) - Rt.T @ self.H_m_white
         X_bot = np.hstack(
-            [np.kron(np.eye(q), H_me), np.kron(np.eye(q), self.H_d)]
+            [np.kron(np.eye(q), cond.H_me()[0]), np.kron(np.eye(q), self.H_d)]
         )  # (nq, P)
-        y_bot = (self.Y_e - Rt.T @ self.Y_m_white).T.ravel()
+        y_bot = (self.Y_e - cond.M()[0]).T.ravel()
         X_bot = linalg.solve_triangular(L_S, X_bot, lower=True)
         y_bot = linalg.solve_triangular(L_S, y_bot, lower=True)
         stacked = np.vstack([self.G_top, X_bot])
         Q, G = linalg.qr(stacked, mode="economic")
         diag = np.abs(np.diag(G))
         if diag.min() <= 1e-10 * diag.max():
-            raise FactorizationError(
-                "The global regression matrix H_Y(theta) is rank deficient: use "
-                "lower-order regressions for the model or the discrepancy."
-            )
+            raise FactorizationError(RANK_DEFICIENT)
         rhs = np.concatenate([self.b_top, y_bot])
         beta = linalg.solve_triangular(G, Q.T @ rhs)
         resid_bot = y_bot - X_bot @ beta
@@ -209,10 +201,10 @@ class GlobalModel:
             + 2.0 * np.sum(np.log(diag))
             + rss
         )
-        whitened = _Whitened(
+        whitened = Whitened(
             theta=theta,
-            P_e=P_e,
-            Rt=Rt,
+            P_e=cond.points,
+            Rt=cond.Rt,
             L_S=L_S,
             G=G,
             beta=beta,
@@ -233,282 +225,410 @@ class GlobalModel:
         """
         return self.whiten(theta).log_likelihood
 
-    # ------------------------------------------------------------ module 4
-    def predict(self, theta, X, component, return_var=True):
-        """Conditional moments at ``X`` (s, d) given ``theta`` and all data.
 
-        Parameters
-        ----------
-        theta : ndarray of shape (r,)
-        X : ndarray of shape (s, d)
-        component : {"model", "discrepancy", "reality", "observation"}
-            ``reality`` is the true process ``y_m + delta``; ``observation``
-            adds the measurement noise (a new field measurement, Eq. 4.36).
-        return_var : bool
-            Also return the marginal variances.
+class LogPosterior:
+    """The module-3 log posterior of theta in user units (picklable).
 
-        Returns
-        -------
-        mean : ndarray of shape (s, q)
-        var : ndarray of shape (s, q)
-            Only when ``return_var`` is True.
-        """
-        w = self.whiten(theta)
-        q, s = self.q, len(X)
-        with_model = component in ("model", "reality", "observation")
-        with_delta = component in ("discrepancy", "reality", "observation")
-        P_s = self._field_inputs(w.theta, X)
-        # Cross-covariances with the data, whitened block by block.
-        top = np.zeros((self.N * q, s * q))
-        bot = np.zeros((self.n * q, s * q))
-        h_m = np.zeros((s, self.p_m))
-        h_d = np.zeros((s, self.p_d))
-        prior_diag = np.zeros((s, q))
-        if with_model:
-            K_ms = linalg.solve_triangular(
-                self.C_m, self.kernel_m(self.X_m, P_s), lower=True
-            )
-            top = np.kron(self.L_sm.T, K_ms)  # L_A^-1 (Sigma_m ⊗ r_ms)
-            bot = np.kron(self.sigma2_m, self.kernel_m(w.P_e, P_s) - w.Rt.T @ K_ms)
-            h_m = regression_basis(P_s, self.regression_m)
-            prior_diag += np.outer(self.kernel_m.diag(P_s), np.diag(self.sigma2_m))
-        if with_delta:
-            bot = bot + np.kron(self.sigma2_d, self.kernel_d(self.X_e, X))
-            h_d = regression_basis(X, self.regression_d)
-            prior_diag += np.outer(self.kernel_d.diag(X), np.diag(self.sigma2_d))
-        if component == "observation":
-            prior_diag += self.noise
-        bot = linalg.solve_triangular(w.L_S, bot, lower=True)
-        h = np.hstack([np.kron(np.eye(q), h_m), np.kron(np.eye(q), h_d)])  # (sq, P)
-        mean = h @ w.beta + top.T @ w.resid_top + bot.T @ w.resid_bot
-        mean = mean.reshape(q, s).T
-        if not return_var:
-            return mean
-        U = h.T - self.X_top_full.T @ top - w.X_bot.T @ bot  # (P, sq)
-        Ut = linalg.solve_triangular(w.G, U, trans="T")
-        reduction = np.sum(top**2, axis=0) + np.sum(bot**2, axis=0)
-        var = prior_diag.T.ravel() - reduction + np.sum(Ut**2, axis=0)
-        return mean, np.clip(var.reshape(q, s).T, 0.0, None)
+    ``log p(theta) + log p(Y | theta, D, phi)``; ``-inf`` outside the
+    prior's support or where the global covariance cannot be factored.
 
-
-# ---------------------------------------------------------------------------
-# The same likelihood for many response subsets and many theta at once.
-# ---------------------------------------------------------------------------
-class FieldDesignEmulator:
-    """The theta-dependent pieces of :class:`GlobalModel` at a fixed design.
-
-    The sensor designer evaluates the module-3 likelihood of Eq. 4.30 for
-    every response subset of every Monte Carlo replicate at the same field
-    inputs ``X_e``. What depends on ``theta`` through the emulator does not
-    depend on the responses or on the field data::
-
-        Rt(theta)  = C_m^-1 R_m(D_m, D_e(theta))                 (N, n)
-        T(theta)   = R_m(D_e(theta)) - Rt' Rt                     (n, n)
-        H_me(theta) = H_m(D_e(theta)) - Rt' C_m^-1 H_m            (n, p_m)
-        M(theta)   = Rt' C_m^-1 Y_m                               (n, q)
-
-    so :meth:`pieces` computes them once per ``theta`` for all subsets, and
-    :meth:`simulation_block` the theta-independent simulation block of a
-    subset once per subset (both as in :class:`GlobalModel`).
+    It also defines the MCMC coordinates ``u``: parameters whose prior is
+    (practically) positive (stiffnesses, moduli, areas) are sampled as
+    ``log theta``, where posterior ridges such as ``E I = const`` are
+    straight and random-walk proposals follow them far better; then ``u``
+    is standardised with the simulated parameters. A parameter gets log
+    coordinates where the prior puts at most 1e-6 of its mass on
+    non-positive values (the support, when finite; else the lower end of
+    the central 1 - 2e-6 interval): truncating that mass is negligible.
 
     Parameters
     ----------
-    model_fit : NoiseFreeLikelihood
-        The fitted module-1 emulator state.
-    X_m : ndarray of shape (N, d + r)
-    Y_m : ndarray of shape (N, q)
-    model_kernel : sklearn Kernel
-    model_regression : str
-    X_e : ndarray of shape (n, d)
-        The field design (standardised).
-    nugget : float, default=0.0
-        The emulator's nugget, on the diagonal of ``T`` as in
-        :class:`GlobalModel`.
+    prior : skmba prior object
+    model : GlobalModel
+    scaler : Standardizer
+    theta_sim : ndarray of shape (N, r)
+        The simulated parameters (user units), the scale of ``u``.
+    """
+
+    def __init__(self, prior, model, scaler, theta_sim):
+        self.prior, self.model, self.scaler = prior, model, scaler
+        lower = prior.bounds(1.0 - 2e-6)[:, 0]
+        self.log_dims = np.asarray(lower >= 0) & np.all(theta_sim > 0, axis=0)
+        u = theta_sim.copy()
+        u[:, self.log_dims] = np.log(u[:, self.log_dims])
+        self.u_mean = u.mean(axis=0)
+        scale = u.std(axis=0)
+        self.u_scale = np.where(scale > 0, scale, 1.0)
+
+    def with_own_cache(self):
+        """A copy whose global model has its own factorisation cache.
+
+        Chains and prediction tasks that share the model under a
+        thread-based joblib backend then cannot see each other's cache.
+        """
+        other = copy.copy(self)
+        other.model = copy.copy(self.model)
+        return other
+
+    def __call__(self, theta):
+        """Log posterior at one ``theta`` of shape (r,)."""
+        log_prior = float(np.ravel(self.prior.logpdf(theta[None, :]))[0])
+        if not np.isfinite(log_prior):
+            return -np.inf
+        try:
+            return log_prior + self.model.log_likelihood(self.scaler.theta(theta))
+        except FactorizationError:
+            return -np.inf
+
+    def to_u(self, theta):
+        """Sampling coordinates of ``theta`` (..., r)."""
+        u = np.array(theta, dtype=float)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            u[..., self.log_dims] = np.log(u[..., self.log_dims])
+        return (u - self.u_mean) / self.u_scale
+
+    def from_u(self, u):
+        """``theta`` of sampling coordinates ``u`` (..., r)."""
+        theta = np.asarray(u, dtype=float) * self.u_scale + self.u_mean
+        theta[..., self.log_dims] = np.exp(theta[..., self.log_dims])
+        return theta
+
+    def log_density_u(self, u):
+        """Log posterior density of the sampling coordinates (with Jacobian)."""
+        theta = self.from_u(u)
+        if not np.all(np.isfinite(theta)):
+            return -np.inf
+        return self(theta) + np.sum(np.log(theta[self.log_dims]))
+
+    def raise_unevaluable(self, thetas):
+        """The posterior is -inf at every node: say why, with the cause."""
+        middle = np.array([thetas[len(thetas) // 2]])
+        try:
+            self.model.log_likelihood(self.scaler.theta(middle))
+        except FactorizationError as exc:
+            noise = self.model.noise * self.scaler.y_scale**2
+            raise FactorizationError(
+                f"The module-3 likelihood could not be evaluated at any "
+                f"quadrature node (at theta={middle[0]:.6g}: {exc}) The "
+                f"noise variances are {np.array2string(noise, precision=3)}; "
+                "when they sit at their lower bound (noise-free field data), "
+                "raise emulator_alpha, or remove responses that are exact "
+                "multiples of others in the simulations."
+            ) from exc
+        raise FactorizationError(
+            "The posterior is zero at every quadrature node: the prior gives "
+            "no mass there. Check the prior's support against theta_sim."
+        )
+
+
+class _ChainTarget:
+    """Log density of the MCMC coordinates for one chain (picklable)."""
+
+    def __init__(self, log_posterior):
+        self.log_posterior = log_posterior.with_own_cache()
+
+    def __call__(self, u):
+        return self.log_posterior.log_density_u(u)
+
+
+@dataclass(frozen=True)
+class PosteriorResult:
+    """Module 3's posterior of theta, in user units.
+
+    Attributes
+    ----------
+    method : {"quadrature", "mcmc"}
+    samples : ndarray of shape (m, r)
+        Draws (pooled chains after burn-in, or resampled from quadrature).
+    mean : ndarray of shape (r,)
+    cov : ndarray of shape (r, r)
+    nodes, weights : ndarray or None
+        The quadrature rule (one parameter) and its normalised weights.
+    interval : tuple or None
+        The interval that holds the quadrature posterior's mass.
+    chains : ndarray of shape (n_chains, n_samples, r) or None
+    acceptance_rate, rhat, ess : ndarray or None
+        MCMC diagnostics.
+    """
+
+    method: str
+    samples: np.ndarray
+    mean: np.ndarray
+    cov: np.ndarray
+    nodes: np.ndarray | None = None
+    weights: np.ndarray | None = None
+    interval: tuple | None = None
+    chains: np.ndarray | None = None
+    acceptance_rate: np.ndarray | None = None
+    rhat: np.ndarray | None = None
+    ess: np.ndarray | None = None
+
+    def summary(self, seconds):
+        """One line for the progress log: method, time, mean, sd, diagnostics."""
+        text = (
+            f"module 3 done in {seconds:.1f} s ({self.method}): "
+            f"posterior mean {np.array2string(self.mean, precision=5)}, "
+            f"sd {np.array2string(np.sqrt(np.diag(self.cov)), precision=3)}"
+        )
+        if self.method == "mcmc":
+            text += (
+                f", R-hat {np.array2string(self.rhat, precision=3)}, bulk ESS "
+                f"{np.array2string(self.ess, precision=0)}"
+            )
+        return text
+
+    @classmethod
+    def from_draws(cls, method, samples, **extra):
+        """Moments from equally weighted draws."""
+        mean = samples.mean(axis=0)
+        return cls(method, samples, mean, np.atleast_2d(np.cov(samples.T)), **extra)
+
+    @classmethod
+    def from_rule(cls, samples, nodes, weights, interval):
+        """Moments from a quadrature rule."""
+        mean = weights @ nodes
+        centred = nodes - mean
+        cov = (centred * weights[:, None]).T @ centred
+        return cls(
+            "quadrature",
+            samples,
+            mean,
+            cov,
+            nodes=nodes,
+            weights=weights,
+            interval=interval,
+        )
+
+
+def _quadrature_pass(log_posterior, lo, hi):
+    """One Gauss-Legendre pass: nodes, density, normalised weights."""
+    nodes_gl, weights_gl = np.polynomial.legendre.leggauss(_QUADRATURE_NODES)
+    t = 0.5 * (hi - lo) * nodes_gl + 0.5 * (hi + lo)
+    logp = np.array([log_posterior(np.array([v])) for v in t])
+    if not np.any(np.isfinite(logp)):
+        log_posterior.raise_unevaluable(t)
+    density = np.exp(logp - np.max(logp))
+    w = weights_gl * density
+    return t, density, w / w.sum()
+
+
+def posterior_by_quadrature(log_posterior, n_samples, rng, say=None):
+    """Adaptive Gauss-Legendre quadrature of a one-parameter posterior.
+
+    A first 201-node rule over the prior's 0.9999 interval locates the
+    mass; each further pass puts the rule on the region that holds all
+    but 1e-12 of the mass found by the previous one, until that region
+    spans at least 40 nodes (for a Gaussian posterior, a node spacing
+    below 0.4 standard deviations): at least two passes, at most eight.
+    A posterior still unresolved after eight passes is reported by a
+    warning. Draws come by inverse-CDF sampling of the posterior CDF,
+    integrated from the density at the nodes by the trapezoidal rule.
+
+    Parameters
+    ----------
+    log_posterior : LogPosterior
+    n_samples : int
+        Draws to return.
+    rng : numpy RandomState
+        One uniform, the offset of the stratified draws.
+    say : callable, default=None
+        Progress messages.
+
+    Returns
+    -------
+    PosteriorResult
+    """
+    say = say or (lambda message: None)
+    lo, hi = log_posterior.prior.bounds(0.9999)[0]
+    for sweep in range(_QUADRATURE_PASSES):
+        started = time.perf_counter()
+        interval = f"[{lo:.6g}, {hi:.6g}]"
+        t, density, w = _quadrature_pass(log_posterior, lo, hi)
+        mass = np.cumsum(w)
+        inside = np.flatnonzero((mass > 1e-12) & (mass < 1 - 1e-12))
+        i0 = max((inside[0] if inside.size else np.argmax(w)) - 2, 0)
+        i1 = min((inside[-1] if inside.size else np.argmax(w)) + 2, len(t) - 1)
+        lo, hi = t[i0], t[i1]
+        say(
+            f"module 3: quadrature pass {sweep + 1} ({len(t)} nodes on "
+            f"{interval}, {inside.size} carry the mass) in "
+            f"{time.perf_counter() - started:.1f} s"
+        )
+        if sweep >= 1 and inside.size >= _RESOLVED_NODES:
+            break
+    else:
+        warnings.warn(
+            f"The posterior of theta is narrower than the quadrature resolved "
+            f"after {_QUADRATURE_PASSES} passes (its mass lies on {inside.size} "
+            f"of {len(t)} nodes around {t[np.argmax(w)]:.8g}): theta_cov_ "
+            "and the spread of theta_samples_ are underestimated. Check the "
+            "simulations and the noise estimate (noise_), or use "
+            "sampler='mcmc'.",
+            UserWarning,
+            stacklevel=3,
+        )
+    cdf = np.concatenate(
+        [[0.0], np.cumsum(0.5 * (density[1:] + density[:-1]) * np.diff(t))]
+    )
+    cdf = cdf / cdf[-1]
+    u = (np.arange(n_samples) + rng.uniform()) / n_samples
+    samples = np.interp(u, cdf, t)[:, None]
+    return PosteriorResult.from_rule(samples, t[:, None], w, (lo, hi))
+
+
+def laplace(log_density, starts):
+    """Posterior mode and covariance (Laplace) of ``log_density``.
+
+    The mode maximises the log density from the given starts (Nelder-Mead:
+    the log posterior is cheap and has no gradient here); the covariance is
+    the inverse of a central finite-difference Hessian whose steps follow
+    the posterior's own scale. Both only initialise the Metropolis-Hastings
+    chains.
 
     Examples
     --------
-    ``tests/test_posterior.py`` checks :class:`SubsetLikelihood` against
-    :class:`GlobalModel` restricted to the same responses.
+    >>> mode, cov = laplace(lambda u: -0.5 * float(u @ u), [np.array([1.0])])
+    >>> np.round(mode, 4), np.round(cov, 3)
+    (array([0.]), array([[1.]]))
     """
 
-    def __init__(
-        self, model_fit, X_m, Y_m, model_kernel, model_regression, X_e, nugget=0.0
-    ):
-        self.X_m, self.X_e = X_m, X_e
-        self.nugget = float(nugget)
-        self.kernel_m, self.regression_m = model_kernel, model_regression
-        self.C_m = model_fit.C
-        self.sigma2_m = model_fit.sigma2
-        self.H_m_white = model_fit.gls.H_white
-        self.Y_m_white = linalg.solve_triangular(self.C_m, Y_m, lower=True)
-        self.N, self.q = Y_m.shape
-        self.n = len(X_e)
-        self.p_m = self.H_m_white.shape[1]
-        self.log_det_R_m = log_det_from_cholesky(self.C_m)
-        self._blocks = {}
+    def negative(t):
+        value = log_density(t)
+        return -value if np.isfinite(value) else 1e300
 
-    def pieces(self, thetas):
-        """``T``, ``H_me`` and ``M`` at the rows of ``thetas`` (standardised).
-
-        Returns
-        -------
-        T : ndarray of shape (k, n, n)
-        H_me : ndarray of shape (k, n, p_m)
-        M : ndarray of shape (k, n, q)
-        """
-        thetas = np.atleast_2d(thetas)
-        k, n = len(thetas), self.n
-        points = np.hstack([np.tile(self.X_e, (k, 1)), np.repeat(thetas, n, axis=0)])
-        Rt = linalg.solve_triangular(
-            self.C_m, self.kernel_m(self.X_m, points), lower=True
-        )  # (N, k n)
-        H_me = regression_basis(points, self.regression_m) - Rt.T @ self.H_m_white
-        M = Rt.T @ self.Y_m_white
-        Rt = Rt.reshape(self.N, k, n)
-        prior = np.stack([self.kernel_m(points[i * n : (i + 1) * n]) for i in range(k)])
-        T = prior - np.einsum("mki,mkj->kij", Rt, Rt)
-        T[:, np.arange(n), np.arange(n)] += self.nugget  # as in GlobalModel
-        return T, H_me.reshape(k, n, -1), M.reshape(k, n, -1)
-
-    def simulation_block(self, responses):
-        """The whitened simulation block of a response subset (cached).
-
-        Returns ``(sigma2_m, G_top, b_top, rss_top_perp, log_det_A)`` for the
-        subset: the QR of ``(L_S^-1 ⊗ C_m^-1 H_m)`` and the projection of the
-        whitened simulations on it, as in :class:`GlobalModel`.
-        """
-        key = tuple(responses)
-        if key not in self._blocks:
-            idx = list(key)
-            s = len(idx)
-            sigma2 = self.sigma2_m[np.ix_(idx, idx)]
-            L = cholesky(sigma2, what="emulator response covariance of the subset")
-            L_inv = linalg.solve_triangular(L, np.eye(s), lower=True)
-            X_top = np.kron(L_inv, self.H_m_white)
-            y_top = linalg.solve_triangular(L, self.Y_m_white[:, idx].T, lower=True)
-            y_top = y_top.ravel()
-            Q, G = linalg.qr(X_top, mode="economic")
-            b = Q.T @ y_top
-            log_det_A = self.N * log_det_from_cholesky(L) + s * self.log_det_R_m
-            self._blocks[key] = (sigma2, G, b, float(y_top @ y_top - b @ b), log_det_A)
-        return self._blocks[key]
+    best = min(
+        (
+            optimize.minimize(
+                negative,
+                start,
+                method="Nelder-Mead",
+                options={"xatol": 1e-8, "fatol": 1e-10, "maxiter": 4000},
+            )
+            for start in starts
+        ),
+        key=lambda res: res.fun,
+    )
+    mode = best.x
+    step = np.full(mode.size, 1e-3)
+    cov = np.eye(mode.size) * 1e-2
+    for _ in range(3):
+        H = _hessian(negative, mode, step)
+        values, vectors = np.linalg.eigh(0.5 * (H + H.T))
+        if (
+            np.all(values > 0)
+            and np.all(np.isfinite(values))
+            and negative(mode) < 1e300
+        ):
+            cov = (vectors / values) @ vectors.T
+            step = 0.1 * np.sqrt(np.diag(cov))
+        else:
+            step = step * 10.0
+    return mode, cov
 
 
-class SubsetLikelihood:
-    """Eq. 4.30 for a subset of the responses, at many ``theta`` at once.
+def _hessian(f, x, step):
+    """Central finite-difference Hessian of ``f`` at ``x``."""
+    r = x.size
+    H = np.empty((r, r))
+    for i in range(r):
+        for j in range(i, r):
+            ei = np.eye(r)[i] * step[i]
+            ej = np.eye(r)[j] * step[j]
+            H[i, j] = H[j, i] = (
+                f(x + ei + ej) - f(x + ei - ej) - f(x - ei + ej) + f(x - ei - ej)
+            ) / (4 * step[i] * step[j])
+    return H
 
-    The discrepancy and noise of the subset are those of all responses
-    restricted to it (``Sigma_d[S, S]``, ``Lambda[S]``), which is what a
-    multi-response GP implies for a subset. The Schur complement
-    ``S(theta)`` of each ``theta`` is factored in one batched Cholesky, and
-    the regression coefficients are integrated out through the normal
-    equations of the stacked, whitened regression (small: ``(p_m + p_d) s``
-    columns), which is equivalent to the QR of :class:`GlobalModel`.
+
+def _chain_starts(log_posterior, n_chains, rng):
+    """Overdispersed starts around the mode, and the Laplace covariance.
+
+    The best of many prior draws, refined to the mode; the chains then start
+    around it with a Laplace proposal.
+    """
+    candidates = log_posterior.prior.rvs(50 * n_chains, random_state=rng)
+    logp = np.array([log_posterior(c) for c in candidates])
+    order = np.argsort(logp)[::-1][:n_chains]
+    if not np.all(np.isfinite(logp[order])):
+        raise FactorizationError(
+            "Fewer than n_chains prior draws have a finite posterior: check "
+            "the prior's support against theta_sim."
+        )
+    mode, cov = laplace(
+        log_posterior.log_density_u, log_posterior.to_u(candidates[order[:2]])
+    )
+    r = mode.size
+    root = np.linalg.cholesky(cov + 1e-12 * np.trace(cov) * np.eye(r))
+    starts = []
+    while len(starts) < n_chains:
+        start = mode + 1.5 * root @ rng.standard_normal(r)
+        if np.isfinite(log_posterior.log_density_u(start)):
+            starts.append(start)
+    return np.array(starts), cov
+
+
+def posterior_by_mcmc(
+    log_posterior,
+    *,
+    n_chains,
+    n_samples,
+    burn_in,
+    n_jobs=None,
+    random_state=None,
+    verbose=0,
+    say=None,
+):
+    """Metropolis-Hastings chains on the sampling coordinates.
 
     Parameters
     ----------
-    design : FieldDesignEmulator
-    responses : sequence of int
-        The subset ``S``.
-    Y_e : ndarray of shape (n, q)
-        Field data of all responses (standardised).
-    R_d : ndarray of shape (n, n)
-        Discrepancy correlation at the field design.
-    H_d : ndarray of shape (n, p_d)
-        Discrepancy regression matrix.
-    sigma2_d : ndarray of shape (q, q)
-    noise : ndarray of shape (q,)
+    log_posterior : LogPosterior
+    n_chains, n_samples, burn_in : int
+    n_jobs : int, default=None
+        Chains in parallel through joblib.
+    random_state : int
+    verbose : int
+        Passed to the sampler.
+    say : callable, default=None
+        Progress messages.
+
+    Returns
+    -------
+    PosteriorResult
     """
-
-    def __init__(self, design, responses, Y_e, R_d, H_d, sigma2_d, noise):
-        self.design = design
-        self.idx = list(responses)
-        idx, n = self.idx, design.n
-        s = len(idx)
-        self.s = s
-        self.sigma2_m, G, b, self.rss_perp, self.log_det_A = design.simulation_block(
-            idx
+    say = say or (lambda message: None)
+    rng = np.random.RandomState(random_state)
+    started = time.perf_counter()
+    starts, cov = _chain_starts(log_posterior, n_chains, rng)
+    r = starts.shape[1]
+    say(
+        f"module 3: posterior mode found in {time.perf_counter() - started:.1f} "
+        f"s; running {n_chains} chain(s) of {burn_in} burn-in + "
+        f"{n_samples} steps"
+    )
+    result = run_chains(
+        [_ChainTarget(log_posterior) for _ in range(n_chains)],
+        starts,
+        n_samples=n_samples,
+        burn_in=burn_in,
+        proposal_cov=(2.38**2 / r) * cov,
+        adapt=True,
+        n_jobs=n_jobs,
+        random_state=rng.randint(2**31 - 1),
+        verbose=verbose,
+    )
+    chains = log_posterior.from_u(result.samples)
+    for c, chain in enumerate(chains):
+        say(
+            f"module 3: chain {c} done: acceptance {result.acceptance_rate[c]:.2f}"
+            f", mean {np.array2string(chain.mean(axis=0), precision=5)}"
         )
-        self.p_m, self.p_d = design.p_m, H_d.shape[1]
-        self.P = (self.p_m + self.p_d) * s
-        pm = self.p_m * s
-        self.GtG = np.zeros((self.P, self.P))
-        self.GtG[:pm, :pm] = G.T @ G
-        self.Gtb = np.zeros(self.P)
-        self.Gtb[:pm] = G.T @ b
-        self.bb = float(b @ b)
-        self.S_fixed = np.kron(sigma2_d[np.ix_(idx, idx)], R_d) + np.kron(
-            np.diag(np.asarray(noise)[idx]), np.eye(n)
-        )
-        self.X_d = np.kron(np.eye(s), H_d)  # (n s, p_d s)
-        self.Y_e = Y_e[:, idx]
-        self.M = (design.N + n) * s
-
-    def log_likelihood(self, pieces):
-        """Log-likelihood at the ``k`` parameter values of ``pieces``.
-
-        Parameters
-        ----------
-        pieces : tuple
-            ``FieldDesignEmulator.pieces(thetas)``.
-
-        Returns
-        -------
-        ndarray of shape (k,)
-            ``-inf`` where ``S(theta)`` is not positive definite.
-        """
-        T, H_me, Mk = pieces
-        idx, s, n = self.idx, self.s, self.design.n
-        k = len(T)
-        S = self.S_fixed + np.einsum("ab,kij->kaibj", self.sigma2_m, T).reshape(
-            k, n * s, n * s
-        )
-        X = np.empty((k, n * s, self.P))
-        pm = self.p_m * s
-        for a in range(s):
-            X[:, a * n : (a + 1) * n, :pm] = 0.0
-            X[:, a * n : (a + 1) * n, a * self.p_m : (a + 1) * self.p_m] = H_me
-        X[:, :, pm:] = self.X_d
-        y = (self.Y_e - Mk[:, :, idx]).transpose(0, 2, 1).reshape(k, n * s)
-        out = np.full(k, -np.inf)
-        ok = np.ones(k, dtype=bool)
-        try:
-            L = np.linalg.cholesky(S)
-        except np.linalg.LinAlgError:
-            L = np.zeros_like(S)
-            for j in range(k):
-                try:
-                    L[j] = np.linalg.cholesky(S[j])
-                except np.linalg.LinAlgError:
-                    ok[j] = False
-        if not ok.any():
-            return out
-        L, S, X, y = L[ok], S[ok], X[ok], y[ok]
-        rhs = np.concatenate([X, y[:, :, None]], axis=2)
-        solved = np.linalg.solve(S, rhs)  # S^-1 [X | y]
-        XtSX = np.einsum("kip,kiq->kpq", X, solved[:, :, :-1])
-        XtSy = np.einsum("kip,ki->kp", X, solved[:, :, -1])
-        ySy = np.einsum("ki,ki->k", y, solved[:, :, -1])
-        info = self.GtG + XtSX
-        c = self.Gtb + XtSy
-        try:
-            L_info = np.linalg.cholesky(info)
-        except np.linalg.LinAlgError:
-            raise FactorizationError(
-                "The global regression matrix H_Y(theta) is rank deficient: use "
-                "lower-order regressions for the model or the discrepancy."
-            ) from None
-        z = np.linalg.solve(L_info, c[:, :, None])[:, :, 0]
-        rss = self.rss_perp + self.bb + ySy - np.einsum("kp,kp->k", z, z)
-        log_det_S = 2.0 * np.sum(np.log(np.diagonal(L, axis1=1, axis2=2)), axis=1)
-        log_det_info = 2.0 * np.sum(
-            np.log(np.diagonal(L_info, axis1=1, axis2=2)), axis=1
-        )
-        out[ok] = -0.5 * (
-            (self.M - self.P) * LOG_2PI
-            + self.log_det_A
-            + log_det_S
-            + log_det_info
-            + rss
-        )
-        return out
+    check_diagnostics(result)
+    return PosteriorResult.from_draws(
+        "mcmc",
+        chains.reshape(-1, r),
+        chains=chains,
+        acceptance_rate=result.acceptance_rate,
+        rhat=result.rhat,
+        ess=result.ess,
+    )

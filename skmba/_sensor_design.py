@@ -27,7 +27,7 @@ differences between subsets are not Monte Carlo noise.
 
 import time
 import warnings
-from numbers import Integral, Real
+from numbers import Integral
 
 import numpy as np
 from joblib import Parallel, delayed
@@ -39,194 +39,26 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 from threadpoolctl import threadpool_limits
 
 from skmba._calibration import ModularBayesCalibrator
-from skmba._discrepancy import TABLE_6_2_RANGES, check_interval
-from skmba._gp import default_kernel
-from skmba._importance import posterior_moments
-from skmba._posterior import FieldDesignEmulator, SubsetLikelihood
+from skmba._discrepancy import (
+    discrepancy_kernel,
+)
+from skmba._emulator import Standardizer, fit_emulator
+from skmba._integration import integrate_over_prior
+from skmba._preposterior import (
+    PRIOR_UNITS,
+    MonteCarloContext,
+    check_design_priors,
+    criterion_value,
+    draw_replicate,
+    posterior_block,
+)
 from skmba._priors import check_prior
-from skmba._regression import regression_basis
 from skmba._search import all_subsets, check_max_size, genetic, greedy_forward
+from skmba._subset_likelihood import FieldDesignEmulator
 
 SEARCHES = ("exhaustive", "greedy", "genetic")
 CRITERIA = ("trace", "det", "max_eig")
-PRIOR_UNITS = ("standardised", "user")
-#: Table 6.2 of the thesis, in the standardised units of the simulations:
-#: discrepancy roughness, variance (relative to each response's variance)
-#: and regression coefficients (in response standard deviations).
-DEFAULT_DISCREPANCY_PRIOR = {
-    **TABLE_6_2_RANGES,
-    "mean": (-5.0, 5.0),
-    "correlation": "random",
-}
-#: Table 6.2: observation noise variance relative to each response's variance.
-DEFAULT_NOISE_PRIOR = (0.0, 1e-4)
 DEFAULT_N_DESIGN = 25
-
-
-def _criterion(cov, prior_sd, criterion):
-    """Norm of a covariance scaled by the prior's standard deviations."""
-    scaled = cov / np.outer(prior_sd, prior_sd)
-    if criterion == "trace":
-        return float(np.trace(scaled))
-    if criterion == "det":
-        r = len(scaled)
-        return float(max(np.linalg.det(scaled), 0.0) ** (1.0 / r))
-    return float(np.linalg.eigvalsh(scaled)[-1])
-
-
-class _Context:
-    """What every Monte Carlo task needs; shipped once per task by joblib."""
-
-    def __init__(self, designer, calibrator, design, prior, priors):
-        self.calibrator = calibrator
-        self.design = design
-        self.prior = prior
-        self.priors = priors
-        self.fast = designer.fast
-        self.module2_max_iter = designer.module2_max_iter
-        self.Xs = design.X_e
-        self.n, self.q = design.n, design.q
-        self.nodes = self.pieces = self.weights = None
-        self.mean_bar = self.V_bar = None
-        self.kernel_d = None
-
-    def std_theta(self, theta):
-        return self.calibrator._std_theta(theta)
-
-
-class _Replicate:
-    """One Monte Carlo replicate: the draws, the data and module 2."""
-
-    def __init__(self, theta, Y_e, seed):
-        self.theta, self.Y_e, self.seed = theta, Y_e, seed
-        self.kernel_d = self.sigma2_d = self.noise = None
-        self.truth = None
-        self.n_unconverged = 0
-
-
-def _seed(sequence):
-    return int(sequence.generate_state(1)[0])
-
-
-def _mask(subset):
-    """A subset as the integer whose bits are its responses."""
-    return sum(1 << int(a) for a in subset)
-
-
-def _draw_replicate(ctx, sequence):
-    """Step 2a (and 2b in phase 1): synthetic field data and module 2."""
-    rng = np.random.default_rng(sequence)
-    cal, p = ctx.calibrator, ctx.priors
-    n, q = ctx.n, ctx.q
-    theta = ctx.prior.rvs(1, random_state=rng)[0]
-    Z = np.hstack([ctx.Xs, np.tile(ctx.std_theta(theta), (n, 1))])
-    Y_m = cal.model_gp_.sample_y(
-        Z, 1, random_state=np.random.RandomState(_seed(sequence))
-    ).reshape(n, q)
-    # Discrepancy hyperparameters and realisation.
-    roughness = rng.uniform(*p["roughness"])
-    R_d = clone(ctx.kernel_d).set_params(roughness=roughness)(ctx.Xs)
-    sd = np.sqrt(rng.uniform(*p["variance"]))
-    corr = p["correlation"]
-    if isinstance(corr, str) and corr == "random":
-        corr = np.atleast_2d(
-            stats.wishart(df=q + 1, scale=np.eye(q)).rvs(random_state=rng)
-        )
-        d = np.sqrt(np.diag(corr))
-        corr = corr / np.outer(d, d)
-    sigma2_d = corr * np.outer(sd, sd)
-    H_d = regression_basis(ctx.Xs, cal.discrepancy_regression)
-    beta = rng.uniform(*p["mean"], size=(H_d.shape[1], q))  # per response
-
-    def root(A):
-        values, vectors = np.linalg.eigh(0.5 * (A + A.T))
-        return vectors * np.sqrt(np.clip(values, 0.0, None))
-
-    delta = H_d @ beta + root(R_d) @ rng.standard_normal((n, q)) @ root(sigma2_d).T
-    noise = rng.uniform(*p["noise"])
-    eps = rng.standard_normal((n, q)) * np.sqrt(noise)
-    rep = _Replicate(theta, Y_m + delta + eps, _seed(sequence))
-    rep.truth = (roughness, sigma2_d, noise)
-    if ctx.fast:
-        disc = _module2(ctx, rep, range(q))
-        rep.kernel_d, rep.sigma2_d, rep.noise = disc.kernel_, disc.sigma2, disc.noise
-    return rep
-
-
-def _module2(ctx, rep, responses):
-    """Discrepancy and noise of the responses by maximum likelihood."""
-    idx = list(responses)
-    n = ctx.n
-    rows = np.concatenate([np.arange(a * n, (a + 1) * n) for a in idx])
-    residual = (rep.Y_e - ctx.mean_bar)[:, idx]
-    seed = _seed(np.random.SeedSequence([rep.seed, 1, _mask(idx)]))
-    roughness, sigma2_d, noise = rep.truth
-
-    def start(fit):
-        # The hyperparameters that generated the replicate: the natural
-        # first start of the search for their maximum-likelihood estimate.
-        kernel = clone(ctx.kernel_d).set_params(roughness=roughness)
-        S = sigma2_d[np.ix_(idx, idx)]
-        L = np.linalg.cholesky(
-            S + 1e-8 * np.diag(np.diag(S)) + 1e-12 * np.eye(len(idx))
-        )
-        return fit.pack(kernel.theta, np.maximum(noise[idx], 1e-300), L)
-
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", ConvergenceWarning)
-        disc = ctx.calibrator._fit_discrepancy(
-            ctx.Xs,
-            residual,
-            ctx.V_bar[np.ix_(rows, rows)],
-            seed,
-            start=start,
-            max_iter=ctx.module2_max_iter,
-            responses=idx,
-            ranges={key: ctx.priors[key] for key in ("roughness", "variance")},
-        )
-    rep.n_unconverged += sum(issubclass(w.category, ConvergenceWarning) for w in caught)
-    return disc
-
-
-def _posterior_block(ctx, replicates, subsets):
-    """Step 2b-2c for some replicates and subsets: posterior moments."""
-    r = ctx.prior.dim
-    means = np.empty((len(replicates), len(subsets), r))
-    covs = np.empty((len(replicates), len(subsets), r, r))
-    design, cal = ctx.design, ctx.calibrator
-    for i, rep in enumerate(replicates):
-        for j, subset in enumerate(subsets):
-            if ctx.fast:
-                kernel_d, sigma2_d, noise = rep.kernel_d, rep.sigma2_d, rep.noise
-                idx = list(subset)
-            else:
-                disc = _module2(ctx, rep, subset)
-                kernel_d, sigma2_d, noise = disc.kernel_, disc.sigma2, disc.noise
-                # The fit is of the subset alone: embed it in q x q arrays.
-                full = np.zeros((ctx.q, ctx.q))
-                full[np.ix_(subset, subset)] = sigma2_d
-                noise_full = np.ones(ctx.q)
-                noise_full[list(subset)] = noise
-                sigma2_d, noise = full, noise_full
-                idx = list(subset)
-            H_d = regression_basis(ctx.Xs, cal.discrepancy_regression)
-            like = SubsetLikelihood(
-                design, idx, rep.Y_e, kernel_d(ctx.Xs), H_d, sigma2_d, noise
-            )
-
-            def log_likelihood(thetas, like=like):
-                return like.log_likelihood(design.pieces(ctx.std_theta(thetas)))
-
-            seed = _seed(np.random.SeedSequence([rep.seed, 2, _mask(subset)]))
-            means[i, j], covs[i, j] = posterior_moments(
-                log_likelihood,
-                ctx.prior,
-                ctx.nodes,
-                ctx.weights,
-                like.log_likelihood(ctx.pieces),
-                seed=seed,
-            )
-    return means, covs
 
 
 class PreposteriorDesigner(BaseEstimator):
@@ -510,68 +342,6 @@ class PreposteriorDesigner(BaseEstimator):
                 f"MBA settings) or None, got {type(self.calibrator).__name__}."
             )
 
-    def _check_priors(self, d, q, y_scale):
-        given = {} if self.discrepancy_prior is None else self.discrepancy_prior
-        if not isinstance(given, dict):
-            raise TypeError(
-                "discrepancy_prior must be a dict with keys among "
-                f"{sorted(DEFAULT_DISCREPANCY_PRIOR)}, got {type(given).__name__}."
-            )
-        unknown = set(given) - set(DEFAULT_DISCREPANCY_PRIOR)
-        if unknown:
-            raise ValueError(
-                f"discrepancy_prior has unknown keys {sorted(unknown)}; use "
-                f"{sorted(DEFAULT_DISCREPANCY_PRIOR)}."
-            )
-        spec = {**DEFAULT_DISCREPANCY_PRIOR, **given}
-        out = {
-            "roughness": check_interval(
-                spec["roughness"], "discrepancy_prior['roughness']", d, lower=0.0
-            ),
-            "variance": check_interval(
-                spec["variance"], "discrepancy_prior['variance']", q, lower=0.0
-            ),
-            "mean": check_interval(spec["mean"], "discrepancy_prior['mean']", q),
-            "noise": check_interval(
-                DEFAULT_NOISE_PRIOR if self.noise_prior is None else self.noise_prior,
-                "noise_prior",
-                q,
-                lower=0.0,
-            ),
-        }
-        if np.any(out["roughness"][0] <= 0):
-            raise ValueError("discrepancy_prior['roughness'] must be > 0.")
-        corr = spec["correlation"]
-        if isinstance(corr, str):
-            if corr not in ("random", "independent"):
-                raise ValueError(
-                    "discrepancy_prior['correlation'] must be 'random', "
-                    f"'independent' or a number in (-1/(q-1), 1), got {corr!r}."
-                )
-            if corr == "independent":
-                corr = np.eye(q)
-        elif isinstance(corr, Real):
-            low = -1.0 / (q - 1) if q > 1 else -1.0
-            if not low < corr < 1.0:
-                raise ValueError(
-                    f"discrepancy_prior['correlation']={corr} gives a matrix that "
-                    f"is not positive definite; use a number in ({low:.3g}, 1)."
-                )
-            corr = np.full((q, q), float(corr))
-            np.fill_diagonal(corr, 1.0)
-        else:
-            raise TypeError(
-                "discrepancy_prior['correlation'] must be 'random', 'independent' "
-                f"or a number, got {corr!r}."
-            )
-        out["correlation"] = corr
-        if self.prior_units == "user":
-            # Response units -> the standardised units used internally.
-            for key, power in (("variance", 2), ("noise", 2), ("mean", 1)):
-                lo, hi = out[key]
-                out[key] = (lo / y_scale**power, hi / y_scale**power)
-        return out
-
     # -------------------------------------------------------------- fit
     def fit(self, X, y):
         """Run the fast preposterior analysis.
@@ -597,7 +367,81 @@ class PreposteriorDesigner(BaseEstimator):
         X, y = validate_data(self, X, y, multi_output=True, y_numeric=True)
         X = X.astype(float)
         Y = np.asarray(y, dtype=float).reshape(len(X), -1)
-        N, q = Y.shape
+        prior, d = self._prior(X)
+        q = Y.shape[1]
+        max_size = check_max_size(self.max_responses, q)
+        rng = check_random_state(self.random_state)
+        seeds = rng.randint(2**31 - 1, size=4)
+        cal = self._template()
+        X_sim, theta_sim = X[:, :d], X[:, d:]
+        support = prior.bounds(0.999)
+        if np.any(theta_sim.max(axis=0) < support[:, 0]) or np.any(
+            theta_sim.min(axis=0) > support[:, 1]
+        ):
+            raise ValueError(
+                "The simulated parameters (last r columns of X) do not overlap the "
+                "prior's support: simulate over the prior's range."
+            )
+        if self.prior_units not in PRIOR_UNITS:
+            raise ValueError(
+                f"prior_units={self.prior_units!r} is not supported; use one of "
+                f"{PRIOR_UNITS}."
+            )
+
+        # Step 1: emulator, design, priors, prior-integrated emulator.
+        scaler = Standardizer.from_simulations(X_sim, theta_sim, Y)
+        emulator = fit_emulator(
+            scaler,
+            X_sim,
+            theta_sim,
+            Y,
+            kernel=cal.model_kernel,
+            regression=cal.regression,
+            alpha=cal.emulator_alpha,
+            n_restarts_optimizer=cal.n_restarts_optimizer,
+            random_state=seeds[0],
+        )
+        priors = check_design_priors(
+            self.discrepancy_prior,
+            self.noise_prior,
+            self.prior_units,
+            d,
+            q,
+            scaler.y_scale,
+        )
+        X_design = self._design(X_sim, seeds[2])
+        ctx = self._context(cal, prior, priors, scaler, emulator, X_design, seeds)
+        prior_sd = np.sqrt(np.diag(prior.cov()))
+        self._log("step 1: emulator and prior-integrated emulator", started)
+
+        # Step 2, phase 1: replicates and (fast) their discrepancy estimates.
+        sequences = np.random.SeedSequence(int(seeds[3])).spawn(self.n_mc)
+        parallel = Parallel(n_jobs=self.n_jobs)
+        replicates = parallel(delayed(draw_replicate)(ctx, s) for s in sequences)
+        self._log(f"phase 1: {self.n_mc} replicates", started)
+
+        # Phase 2: posterior moments for the subsets the search asks for.
+        results = self._search(
+            parallel, ctx, replicates, q, max_size, prior_sd, seeds[2], started
+        )
+
+        # Step 3: preposterior covariance and its norm.
+        self._set_fitted(results, replicates, prior, prior_sd, q, X_design, emulator.gp)
+        unconverged = sum(rep.n_unconverged for rep in replicates)
+        if unconverged:
+            warnings.warn(
+                f"{unconverged} module-2 likelihood maximisations of the "
+                f"{self.n_mc} replicates did not fully converge; their estimates "
+                "are used as they are. More restarts (calibrator "
+                "n_restarts_optimizer) make them more robust.",
+                ConvergenceWarning,
+                stacklevel=3,
+            )
+        self._log(f"done: best subset {self.best_subset_}", started)
+        return self
+
+    def _prior(self, X):
+        """The checked prior and the number of design variables."""
         prior = self.prior
         if prior is None and self.calibrator is not None:
             prior = self.calibrator.prior
@@ -606,8 +450,8 @@ class PreposteriorDesigner(BaseEstimator):
                 "prior is required: pass the prior of the calibration parameters, "
                 "e.g. prior=[scipy.stats.uniform(lo, hi - lo)]."
             )
-        self.prior_ = check_prior(prior)
-        r = self.prior_.dim
+        prior = check_prior(prior)
+        N, r = len(X), prior.dim
         d = X.shape[1] - r
         if d < 1:
             raise ValueError(
@@ -623,73 +467,64 @@ class PreposteriorDesigner(BaseEstimator):
                 f"needs at least {2 * (d + r) + 1}, and about {10 * (d + r)} "
                 "are recommended."
             )
-        max_size = check_max_size(self.max_responses, q)
-        priors = None  # checked below, once the response scales are known
-        rng = check_random_state(self.random_state)
-        seeds = rng.randint(2**31 - 1, size=4)
+        return prior, d
 
+    def _template(self):
+        """The calibrator whose MBA settings the designer uses, checked."""
         cal = clone(
             ModularBayesCalibrator() if self.calibrator is None else self.calibrator
         )
         cal.set_params(prior=None, simulator=None, n_jobs=self.n_jobs)
         cal._check_params()
-        cal.prior_ = self.prior_
-        X_sim, theta_sim = X[:, :d], X[:, d:]
-        lo, hi = X_sim.min(axis=0), X_sim.max(axis=0)
-        support = self.prior_.bounds(0.999)
-        if np.any(theta_sim.max(axis=0) < support[:, 0]) or np.any(
-            theta_sim.min(axis=0) > support[:, 1]
-        ):
-            raise ValueError(
-                "The simulated parameters (last r columns of X) do not overlap the "
-                "prior's support: simulate over the prior's range."
-            )
+        return cal
 
-        # Step 1: emulator, design, priors, prior-integrated emulator.
-        if self.prior_units not in PRIOR_UNITS:
-            raise ValueError(
-                f"prior_units={self.prior_units!r} is not supported; use one of "
-                f"{PRIOR_UNITS}."
-            )
-        Z_sim, Ys_sim = cal._fit_emulator(X_sim, theta_sim, Y, seeds[0])
-        priors = self._check_priors(d, q, cal.y_scale_)
-        if self.X_design is not None:
-            X_design = check_array(self.X_design, input_name="X_design")
-            if X_design.shape[1] != d:
-                raise ValueError(
-                    f"X_design has {X_design.shape[1]} columns but the simulations "
-                    f"have {d} design variables."
-                )
-            tol = 1e-9 * np.maximum(hi - lo, 1.0)
-            if np.any(X_design < lo - tol) or np.any(X_design > hi + tol):
-                raise ValueError(
-                    "X_design lies outside the range of the simulated design "
-                    f"variables [{lo.tolist()}, {hi.tolist()}]: the emulator would "
-                    "extrapolate. Keep X_design inside it or extend the simulations."
-                )
-        else:
+    def _design(self, X_sim, seed):
+        """The planned field inputs: ``X_design`` checked, or a hypercube."""
+        d = X_sim.shape[1]
+        lo, hi = X_sim.min(axis=0), X_sim.max(axis=0)
+        if self.X_design is None:
             n_design = DEFAULT_N_DESIGN if self.n_design is None else self.n_design
-            u = stats.qmc.LatinHypercube(d=d, seed=seeds[2]).random(n_design)
-            X_design = lo + (hi - lo) * u
-        self.X_design_ = X_design
-        Xs = cal._std_x(X_design)
-        state = cal.model_gp_._fit_state
-        design = FieldDesignEmulator(
-            state,
-            Z_sim,
-            Ys_sim,
-            cal.model_gp_.kernel_,
-            cal.regression,
+            u = stats.qmc.LatinHypercube(d=d, seed=seed).random(n_design)
+            return lo + (hi - lo) * u
+        X_design = check_array(self.X_design, input_name="X_design")
+        if X_design.shape[1] != d:
+            raise ValueError(
+                f"X_design has {X_design.shape[1]} columns but the simulations "
+                f"have {d} design variables."
+            )
+        tol = 1e-9 * np.maximum(hi - lo, 1.0)
+        if np.any(X_design < lo - tol) or np.any(X_design > hi + tol):
+            raise ValueError(
+                "X_design lies outside the range of the simulated design "
+                f"variables [{lo.tolist()}, {hi.tolist()}]: the emulator would "
+                "extrapolate. Keep X_design inside it or extend the simulations."
+            )
+        return X_design
+
+    def _context(self, cal, prior, priors, scaler, emulator, X_design, seeds):
+        """Step 1 at the design: what every Monte Carlo task needs."""
+        Xs = scaler.x(X_design)
+        design = FieldDesignEmulator(emulator, Xs)
+        module2 = dict(
+            kernel=cal.discrepancy_kernel,
+            regression=cal.discrepancy_regression,
+            noise=cal.noise,
+            optimizer=cal.discrepancy_optimizer,
+            n_restarts=cal.n_restarts_optimizer,
+        )
+        ctx = MonteCarloContext(self, scaler, design, prior, priors, module2)
+        ctx.integrated = integrate_over_prior(
+            emulator,
+            scaler,
+            prior,
             Xs,
-            nugget=cal.model_gp_.alpha_,
+            rule=cal.integration,
+            n_nodes=cal.n_integration_nodes,
+            variance=cal.module2_variance,
+            n_jobs=cal.n_jobs,
+            random_state=seeds[1],
         )
-        ctx = _Context(self, cal, design, self.prior_, priors)
-        ctx.mean_bar, ctx.V_bar = cal._integrated_emulator(Xs, seeds[1])
-        kernel_d = (
-            default_kernel(Xs)
-            if cal.discrepancy_kernel is None
-            else clone(cal.discrepancy_kernel)
-        )
+        kernel_d = discrepancy_kernel(cal.discrepancy_kernel, Xs)
         if "roughness" not in kernel_d.get_params():
             raise TypeError(
                 "The calibrator's discrepancy_kernel has no 'roughness' "
@@ -697,24 +532,13 @@ class PreposteriorDesigner(BaseEstimator):
                 "skmba.kernels (e.g. Gauss())."
             )
         ctx.kernel_d = kernel_d
-        n_nodes = 33 if r == 1 else 64
-        ctx.nodes, ctx.weights = self.prior_.integration_nodes(
-            n_nodes, random_state=seeds[3]
-        )
+        n_nodes = 33 if prior.dim == 1 else 64
+        ctx.nodes, ctx.weights = prior.integration_nodes(n_nodes, random_state=seeds[3])
         ctx.pieces = design.pieces(ctx.std_theta(ctx.nodes))
-        self.model_gp_ = cal.model_gp_
-        self.n_responses_ = q
-        self._prior_sd = np.sqrt(np.diag(self.prior_.cov()))
-        self._log("step 1: emulator and prior-integrated emulator", started)
+        return ctx
 
-        # Step 2, phase 1: replicates and (fast) their discrepancy estimates.
-        sequences = np.random.SeedSequence(int(seeds[3])).spawn(self.n_mc)
-        parallel = Parallel(n_jobs=self.n_jobs)
-        replicates = parallel(delayed(_draw_replicate)(ctx, s) for s in sequences)
-        self.theta_draws_ = np.array([rep.theta for rep in replicates])
-        self._log(f"phase 1: {self.n_mc} replicates", started)
-
-        # Phase 2: posterior moments for the subsets the search asks for.
+    def _search(self, parallel, ctx, replicates, q, max_size, prior_sd, seed, started):
+        """Phase 2: the posterior moments of every subset the search scores."""
         results = {}
         n_tasks = max(1, min(self.n_mc, 4 * abs(parallel.n_jobs or 1)))
         blocks = np.array_split(np.arange(self.n_mc), n_tasks)
@@ -724,7 +548,7 @@ class PreposteriorDesigner(BaseEstimator):
             new = [s for s in dict.fromkeys(subsets) if s not in results]
             if new:
                 parts = parallel(
-                    delayed(_posterior_block)(ctx, [replicates[i] for i in block], new)
+                    delayed(posterior_block)(ctx, [replicates[i] for i in block], new)
                     for block in blocks
                     if len(block)
                 )
@@ -733,10 +557,12 @@ class PreposteriorDesigner(BaseEstimator):
                 for j, s in enumerate(new):
                     results[s] = (means[:, j], covs[:, j])
                 self._log(f"scored {len(results)} subsets", started)
-            return [self._score(results[s][1].mean(axis=0)) for s in subsets]
+            return [
+                criterion_value(results[s][1].mean(axis=0), prior_sd, self.criterion)
+                for s in subsets
+            ]
 
-        singletons = [(j,) for j in range(q)]
-        score(singletons)
+        score([(j,) for j in range(q)])
         if self.search == "exhaustive":
             score(all_subsets(q, max_size))
         elif self.search == "greedy":
@@ -748,41 +574,40 @@ class PreposteriorDesigner(BaseEstimator):
                 max_size,
                 population_size=self.population_size,
                 n_generations=self.n_generations,
-                random_state=seeds[2],
+                random_state=seed,
             )
+        return results
 
-        # Step 3: preposterior covariance and its norm.
-        self.subsets_ = sorted(results, key=lambda s: (len(s), s))
-        covs = np.array([results[s][1] for s in self.subsets_])  # (S, n_mc, r, r)
-        means = np.array([results[s][0] for s in self.subsets_])
+    def _set_fitted(self, results, replicates, prior, prior_sd, q, X_design, gp):
+        """Step 3 and every fitted attribute, in one place."""
+
+        def score(cov):
+            return criterion_value(cov, prior_sd, self.criterion)
+
+        subsets = sorted(results, key=lambda s: (len(s), s))
+        covs = np.array([results[s][1] for s in subsets])  # (S, n_mc, r, r)
+        means = np.array([results[s][0] for s in subsets])
+        theta_draws = np.array([rep.theta for rep in replicates])
+        self.prior_ = prior
+        self.X_design_ = X_design
+        self.model_gp_ = gp
+        self.n_responses_ = q
+        self.theta_draws_ = theta_draws
+        self.subsets_ = subsets
         self.preposterior_cov_ = covs.mean(axis=1)
-        self.scores_ = np.array([self._score(c) for c in self.preposterior_cov_])
+        self.scores_ = np.array([score(c) for c in self.preposterior_cov_])
         running = np.cumsum(covs, axis=1) / np.arange(1, self.n_mc + 1)[:, None, None]
         self.convergence_ = np.array(
-            [[self._score(c) for c in per_subset] for per_subset in running]
+            [[score(c) for c in per_subset] for per_subset in running]
         ).T
-        error = means - self.theta_draws_[None]
-        self.expected_error_ = np.sqrt(np.mean(error**2, axis=1))
-        self.best_subset_ = self.subsets_[int(np.argmin(self.scores_))]
+        self.expected_error_ = np.sqrt(
+            np.mean((means - theta_draws[None]) ** 2, axis=1)
+        )
+        self.best_subset_ = subsets[int(np.argmin(self.scores_))]
         self.support_ = np.zeros(q, dtype=bool)
         self.support_[list(self.best_subset_)] = True
-        single = np.array([self._score(results[s][1].mean(axis=0)) for s in singletons])
+        single = np.array([score(results[(j,)][1].mean(axis=0)) for j in range(q)])
         self.ranking_ = stats.rankdata(single, method="min").astype(int)
-        unconverged = sum(rep.n_unconverged for rep in replicates)
-        if unconverged:
-            warnings.warn(
-                f"{unconverged} module-2 likelihood maximisations of the "
-                f"{self.n_mc} replicates did not fully converge; their estimates "
-                "are used as they are. More restarts (calibrator "
-                "n_restarts_optimizer) make them more robust.",
-                ConvergenceWarning,
-                stacklevel=2,
-            )
-        self._log(f"done: best subset {self.best_subset_}", started)
-        return self
-
-    def _score(self, cov):
-        return _criterion(cov, self._prior_sd, self.criterion)
 
     def _log(self, message, started):
         if self.verbose:

@@ -30,7 +30,11 @@ from sklearn.exceptions import ConvergenceWarning
 from sklearn.gaussian_process.kernels import RBF
 
 import skmba._calibration as calibration
+import skmba._discrepancy as discrepancy_module
+import skmba._integration as integration_module
 import skmba._linalg as linalg_module
+import skmba._posterior as posterior_module
+import skmba._prediction as prediction_module
 from skmba import ModularBayesCalibrator
 from skmba.datasets import make_cantilever
 from skmba.kernels import Gauss
@@ -237,16 +241,16 @@ def test_noise_free_proportional_responses():
 
 def test_unevaluable_likelihood_names_the_cause(monkeypatch):
     def fail(self, theta):
-        raise calibration.FactorizationError("S(theta) is not positive definite.")
+        raise posterior_module.FactorizationError("S(theta) is not positive definite.")
 
-    monkeypatch.setattr(calibration.GlobalModel, "log_likelihood", fail)
+    monkeypatch.setattr(posterior_module.GlobalModel, "log_likelihood", fail)
     with pytest.raises(
-        calibration.FactorizationError,
+        posterior_module.FactorizationError,
         match=r"could not be evaluated at any quadrature node \(at theta=.*S\(theta\) "
         r"is not positive definite.*raise emulator_alpha, or remove responses",
     ) as info:
         fit(make_cantilever(30, 10, random_state=0))
-    assert isinstance(info.value.__cause__, calibration.FactorizationError)
+    assert isinstance(info.value.__cause__, posterior_module.FactorizationError)
 
 
 def test_477_gaussian_prior_one_parameter():
@@ -329,8 +333,8 @@ def test_log_posterior_is_prior_plus_schur_likelihood():
     theta = np.array([[60e3], [70e3], [150e3]])
     values = cal.log_posterior(theta)
     assert values[2] == -np.inf  # outside the uniform prior
-    expected = cal.prior_.logpdf(theta[:1]) + cal._global.log_likelihood(
-        cal._std_theta(theta[0])
+    expected = cal.prior_.logpdf(theta[:1]) + cal.global_model_.log_likelihood(
+        (theta[0] - cal.theta_offset_) / cal.theta_scale_
     )
     assert values[0] == pytest.approx(float(expected[0]), rel=1e-12)
     assert cal.log_posterior(theta[1]) == pytest.approx(values[1])
@@ -1061,7 +1065,7 @@ def test_fitted_state_holds_no_functions_or_handles(fitted):
     cal, _ = fitted
     fitted_state = {k: v for k, v in vars(cal).items() if k.endswith("_")}
     fitted_state.update({k: v for k, v in vars(cal).items() if k.startswith("_")})
-    assert "_global" in fitted_state
+    assert "global_model_" in fitted_state
     assert functions_and_handles(fitted_state) == []
     # the walk does find them
     with io.StringIO() as handle:
@@ -1156,6 +1160,17 @@ def test_theta_chains_hold_the_mcmc_draws_and_go_with_quadrature():
 
 
 # --------------------------------------------------------------------- memory
+def patch_memory_check(monkeypatch, check):
+    """Replace check_memory in every module that budgets memory."""
+    for module in (
+        calibration,
+        integration_module,
+        discrepancy_module,
+        prediction_module,
+    ):
+        monkeypatch.setattr(module, "check_memory", check)
+
+
 def recorder(fail_on=None):
     """A check_memory that records its calls and can refuse one of them."""
     calls = []
@@ -1170,7 +1185,7 @@ def recorder(fail_on=None):
 
 def test_memory_is_checked_before_the_large_allocations(monkeypatch):
     check, calls = recorder()
-    monkeypatch.setattr(calibration, "check_memory", check)
+    patch_memory_check(monkeypatch, check)
     cal = fit(BAD, n_restarts_optimizer=0)
     cal.predict(BAD.X_obs[:7], return_std=True)
     whats = [what for what, _, _ in calls]
@@ -1200,7 +1215,7 @@ def test_memory_is_checked_before_the_large_allocations(monkeypatch):
 )
 def test_fit_refuses_what_does_not_fit_in_memory(monkeypatch, fail_on, match):
     check, _ = recorder(fail_on)
-    monkeypatch.setattr(calibration, "check_memory", check)
+    patch_memory_check(monkeypatch, check)
     with pytest.raises(MemoryError, match=match):
         ModularBayesCalibrator(prior=BAD.prior, n_restarts_optimizer=0).fit(
             BAD.X_obs, BAD.y_obs, **SIMS
@@ -1210,7 +1225,7 @@ def test_fit_refuses_what_does_not_fit_in_memory(monkeypatch, fail_on, match):
 def test_prediction_refuses_what_does_not_fit_in_memory(monkeypatch):
     cal = fit(BAD, n_restarts_optimizer=0)
     check, _ = recorder("The prediction")
-    monkeypatch.setattr(calibration, "check_memory", check)
+    patch_memory_check(monkeypatch, check)
     with pytest.raises(MemoryError, match=r"Predict at fewer points per call"):
         cal.predict(BAD.X_obs)
 
@@ -1228,7 +1243,7 @@ def test_memory_check_uses_the_real_available_memory(monkeypatch):
 def test_unresolved_quadrature_posterior_is_reported(monkeypatch, capsys):
     # Make the resolution criterion unreachable: all eight passes run and
     # the calibrator says that theta_cov_ is then underestimated.
-    monkeypatch.setattr(calibration, "_RESOLVED_NODES", 202)
+    monkeypatch.setattr(posterior_module, "_RESOLVED_NODES", 202)
     cal = ModularBayesCalibrator(prior=BAD.prior, n_restarts_optimizer=0, verbose=1)
     with pytest.warns(UserWarning, match=r"narrower than the quadrature resolved "):
         cal.fit(BAD.X_obs, BAD.y_obs, **SIMS)

@@ -10,7 +10,13 @@ import pytest
 from scipy import special, stats
 
 from skmba import MultiResponseGP
-from skmba._integration import integrate_emulator, weighted_moments
+from skmba._emulator import Emulator
+from skmba._integration import (
+    integrate_emulator,
+    one_parameter_rule,
+    repair_psd,
+    weighted_moments,
+)
 from skmba._priors import check_prior
 from skmba.kernels import Gauss
 
@@ -25,7 +31,7 @@ def emulator():
     gp = MultiResponseGP(
         Gauss(roughness=[W_X, W_T]), optimizer=None, normalize_y=False, alpha=1e-8
     ).fit(Z, Y)
-    return gp, Z
+    return gp, Z, Y
 
 
 def theta_factor(theta_j, prior):
@@ -53,13 +59,11 @@ def pair_factor(a, b, prior):
 
 @pytest.mark.parametrize("prior", [stats.norm(0.1, 0.3), stats.uniform(-0.8, 1.5)])
 def test_integrated_mean_matches_closed_form(emulator, prior):
-    gp, Z = emulator
-    state = gp._fit_state
+    gp, Z, Y = emulator
+    state = gp.likelihood_
     X_e = np.array([[-0.5], [0.0], [0.4]])
     nodes, weights = check_prior([prior]).integration_nodes(64)
-    mean, _, _ = integrate_emulator(
-        state, gp.kernel_, "constant", Z, X_e, nodes, weights
-    )
+    mean, _, _ = integrate_emulator(Emulator(gp, Z, Y, "constant"), X_e, nodes, weights)
     # m_bar = beta + (∫ r)' R^-1 E with constant regression (Eq. 4.14)
     r_x = np.exp(-W_X * (X_e - Z[:, 0]) ** 2)  # (n, N)
     r_int = r_x * theta_factor(Z[:, 1], prior)
@@ -69,13 +73,11 @@ def test_integrated_mean_matches_closed_form(emulator, prior):
 
 
 def test_integrated_correlation_matches_closed_form(emulator):
-    gp, Z = emulator
-    state, prior = gp._fit_state, stats.norm(0.1, 0.3)
+    gp, Z, Y = emulator
+    prior = stats.norm(0.1, 0.3)
     X_e = np.array([[-0.5], [0.4]])
     nodes, weights = check_prior([prior]).integration_nodes(64)
-    _, corr, _ = integrate_emulator(
-        state, gp.kernel_, "constant", Z, X_e, nodes, weights
-    )
+    _, corr, _ = integrate_emulator(Emulator(gp, Z, Y, "constant"), X_e, nodes, weights)
     R = gp.kernel_(Z) + 1e-8 * np.eye(len(Z))
     Ri = np.linalg.inv(R)
     one = np.ones(len(Z))
@@ -96,10 +98,10 @@ def test_integrated_correlation_matches_closed_form(emulator):
 
 
 def test_blocks_and_jobs_do_not_change_the_result(emulator):
-    gp, Z = emulator
+    gp, Z, Y = emulator
     nodes, weights = check_prior([stats.uniform(-1, 2)]).integration_nodes(40)
     X_e = np.array([[0.3], [-0.2]])
-    args = (gp._fit_state, gp.kernel_, "constant", Z, X_e, nodes, weights)
+    args = (Emulator(gp, Z, Y, "constant"), X_e, nodes, weights)
     a = integrate_emulator(*args, block=64)
     b = integrate_emulator(*args, block=7, n_jobs=2)
     for u, v in zip(a, b, strict=True):
@@ -110,10 +112,10 @@ def test_many_field_inputs_use_smaller_blocks(emulator, monkeypatch):
     # The blocks shrink with n (memory) but the result does not change.
     import skmba._integration as integration
 
-    gp, Z = emulator
+    gp, Z, Y = emulator
     nodes, weights = check_prior([stats.uniform(-1, 2)]).integration_nodes(40)
     X_e = np.linspace(-0.9, 0.9, 12)[:, None]
-    args = (gp._fit_state, gp.kernel_, "constant", Z, X_e, nodes, weights)
+    args = (Emulator(gp, Z, Y, "constant"), X_e, nodes, weights)
     full = integrate_emulator(*args)
     assert integration.nodes_per_block(12) == 64
     monkeypatch.setattr(integration, "BLOCK_BYTES", 3 * 8 * 12**2 * 5)
@@ -131,3 +133,18 @@ def test_weighted_moments_spread_is_the_law_of_total_variance():
     flat = values.transpose(0, 2, 1).reshape(500, -1)
     np.testing.assert_allclose(spread, np.cov(flat.T, bias=True), atol=1e-12)
     np.testing.assert_allclose(mean, values.mean(axis=0))
+
+
+def test_one_parameter_rule_resolves_auto_and_refuses_quadrature():
+    assert one_parameter_rule("integration", "auto", 1, several="qmc") == "quadrature"
+    assert one_parameter_rule("integration", "auto", 3, several="qmc") == "qmc"
+    with pytest.raises(ValueError, match="needs one parameter, the prior has 2"):
+        one_parameter_rule("sampler", "quadrature", 2, several="mcmc")
+
+
+def test_repair_psd_adds_the_smallest_jitter_and_warns():
+    V = np.array([[1.0, 1.0], [1.0, 1.0 - 1e-3]])  # one negative eigenvalue
+    with pytest.warns(UserWarning, match="not positive definite"):
+        fixed = repair_psd(V)
+    assert np.linalg.eigvalsh(fixed)[0] > 0
+    np.testing.assert_allclose(fixed, V + np.eye(2) * (fixed[0, 0] - 1.0))

@@ -1,0 +1,74 @@
+"""Checks of the field observations ``X`` (design variables) and ``y``.
+
+Shapes, sizes and finiteness before scikit-learn's own checks, so that the
+message names the argument and the fix.
+
+Examples
+--------
+>>> import numpy as np
+>>> from skmba._field_data import check_field_data
+>>> check_field_data(np.zeros((3, 1)), np.zeros((2, 1)), "constant")
+Traceback (most recent call last):
+...
+ValueError: X and y have 3 and 2 rows: y must hold one row of observed responses per row of field inputs X.
+"""  # noqa: E501
+
+import warnings
+
+import numpy as np
+
+from skmba._regression import n_regression_terms
+from skmba._simulations import as_array, check_2d, check_finite_rows
+
+
+def check_field_data(X, y, discrepancy_regression):
+    """Shapes, size and finiteness of the field data, before sklearn's checks.
+
+    Sparse or non-numeric data are left to ``validate_data``.
+    """
+    check_2d(X, "X", "(n_samples, n_features)")
+    X, y = as_array(X), as_array(y)
+    if X is None or y is None:
+        return
+    if y.ndim not in (1, 2):
+        raise ValueError(
+            f"y must be an array of shape (n_samples,) or (n_samples, q), "
+            f"got shape {y.shape}."
+        )
+    n, d = X.shape
+    if len(y) != n:
+        raise ValueError(
+            f"X and y have {n} and {len(y)} rows: y must hold one "
+            "row of observed responses per row of field inputs X."
+        )
+    p_d = n_regression_terms(discrepancy_regression, d)
+    if n <= p_d:
+        raise ValueError(
+            f"X has {n} sample(s) (n_samples={n}): module 2 needs more field "
+            f"observations than the {p_d} term(s) of discrepancy_regression="
+            f"{discrepancy_regression!r} with {d} design variable(s). "
+            "Add observations, or use a lower-order discrepancy_regression."
+        )
+    for name, A in (("X", X), ("y", y)):
+        if A.dtype.kind in "biuf":  # others: validate_data names them
+            check_finite_rows(
+                A.reshape(n, -1),
+                f"Input {name}",
+                "remove these observations (the same rows of X and y) or impute them.",
+            )
+
+
+def warn_few_distinct_inputs(X, discrepancy_regression):
+    """Warn when the field inputs cannot inform theta beyond the mean."""
+    p_d = n_regression_terms(discrepancy_regression, X.shape[1])
+    n_distinct = len(np.unique(X, axis=0))
+    if n_distinct <= p_d:
+        warnings.warn(
+            f"X has {n_distinct} distinct row(s): with discrepancy_regression="
+            f"{discrepancy_regression!r} ({p_d} term(s)) the unknown mean "
+            "of the discrepancy absorbs any offset there, so the field data "
+            "carry no information on theta and its posterior is the prior. "
+            "Observe the system at more distinct inputs.",
+            UserWarning,
+            stacklevel=4,
+        )

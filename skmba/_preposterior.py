@@ -1,0 +1,278 @@
+"""The Monte Carlo steps of the fast preposterior analysis (chapter 6).
+
+Step 2 of the FPA for one replicate (:func:`draw_replicate`: synthetic
+field data drawn from the priors of theta, the emulator, the discrepancy
+and the noise, then module 2), and its posterior moments for response
+subsets (:func:`posterior_block`), on module 1-3 functions only; the
+designer (:class:`~skmba.PreposteriorDesigner`) orchestrates them.
+
+Examples
+--------
+>>> import numpy as np
+>>> from skmba._preposterior import criterion_value
+>>> criterion_value(np.diag([1.0, 4.0]), np.array([1.0, 2.0]), "trace")
+2.0
+"""
+
+import warnings
+from numbers import Real
+
+import numpy as np
+from scipy import stats
+from sklearn.base import clone
+from sklearn.exceptions import ConvergenceWarning
+
+from skmba._discrepancy import TABLE_6_2_RANGES, check_interval, fit_discrepancy
+from skmba._importance import posterior_moments
+from skmba._regression import regression_basis
+from skmba._subset_likelihood import SubsetLikelihood
+
+PRIOR_UNITS = ("standardised", "user")
+
+#: Table 6.2 of the thesis, in the standardised units of the simulations:
+#: discrepancy roughness, variance (relative to each response's variance)
+#: and regression coefficients (in response standard deviations).
+DEFAULT_DISCREPANCY_PRIOR = {
+    **TABLE_6_2_RANGES,
+    "mean": (-5.0, 5.0),
+    "correlation": "random",
+}
+#: Table 6.2: observation noise variance relative to each response's variance.
+DEFAULT_NOISE_PRIOR = (0.0, 1e-4)
+
+
+def criterion_value(cov, prior_sd, criterion):
+    """Norm of a covariance scaled by the prior's standard deviations."""
+    scaled = cov / np.outer(prior_sd, prior_sd)
+    if criterion == "trace":
+        return float(np.trace(scaled))
+    if criterion == "det":
+        r = len(scaled)
+        return float(max(np.linalg.det(scaled), 0.0) ** (1.0 / r))
+    return float(np.linalg.eigvalsh(scaled)[-1])
+
+
+class MonteCarloContext:
+    """What every Monte Carlo task needs; shipped once per task by joblib."""
+
+    def __init__(self, designer, scaler, design, prior, priors, module2):
+        self.scaler = scaler
+        self.emulator = design.emulator
+        self.design = design
+        self.prior = prior
+        self.priors = priors
+        self.module2 = module2
+        self.fast = designer.fast
+        self.module2_max_iter = designer.module2_max_iter
+        self.Xs = design.X_e
+        self.n, self.q = design.n, design.q
+        self.H_d = regression_basis(self.Xs, module2["regression"])
+        self.nodes = self.pieces = self.weights = None
+        self.integrated = None
+        self.kernel_d = None
+
+    def std_theta(self, theta):
+        return self.scaler.theta(theta)
+
+
+class Replicate:
+    """One Monte Carlo replicate: the draws, the data and module 2."""
+
+    def __init__(self, theta, Y_e, seed):
+        self.theta, self.Y_e, self.seed = theta, Y_e, seed
+        self.kernel_d = self.sigma2_d = self.noise = None
+        self.truth = None
+        self.n_unconverged = 0
+
+
+def _seed(sequence):
+    return int(sequence.generate_state(1)[0])
+
+
+def _mask(subset):
+    """A subset as the integer whose bits are its responses."""
+    return sum(1 << int(a) for a in subset)
+
+
+def draw_replicate(ctx, sequence):
+    """Step 2a (and 2b in phase 1): synthetic field data and module 2."""
+    rng = np.random.default_rng(sequence)
+    p = ctx.priors
+    n, q = ctx.n, ctx.q
+    theta = ctx.prior.rvs(1, random_state=rng)[0]
+    Z = np.hstack([ctx.Xs, np.tile(ctx.std_theta(theta), (n, 1))])
+    Y_m = ctx.emulator.gp.sample_y(
+        Z, 1, random_state=np.random.RandomState(_seed(sequence))
+    ).reshape(n, q)
+    # Discrepancy hyperparameters and realisation.
+    roughness = rng.uniform(*p["roughness"])
+    R_d = clone(ctx.kernel_d).set_params(roughness=roughness)(ctx.Xs)
+    sd = np.sqrt(rng.uniform(*p["variance"]))
+    corr = p["correlation"]
+    if isinstance(corr, str) and corr == "random":
+        corr = np.atleast_2d(
+            stats.wishart(df=q + 1, scale=np.eye(q)).rvs(random_state=rng)
+        )
+        d = np.sqrt(np.diag(corr))
+        corr = corr / np.outer(d, d)
+    sigma2_d = corr * np.outer(sd, sd)
+    H_d = ctx.H_d
+    beta = rng.uniform(*p["mean"], size=(H_d.shape[1], q))  # per response
+
+    def root(A):
+        values, vectors = np.linalg.eigh(0.5 * (A + A.T))
+        return vectors * np.sqrt(np.clip(values, 0.0, None))
+
+    delta = H_d @ beta + root(R_d) @ rng.standard_normal((n, q)) @ root(sigma2_d).T
+    noise = rng.uniform(*p["noise"])
+    eps = rng.standard_normal((n, q)) * np.sqrt(noise)
+    rep = Replicate(theta, Y_m + delta + eps, _seed(sequence))
+    rep.truth = (roughness, sigma2_d, noise)
+    if ctx.fast:
+        disc = _fit_module2(ctx, rep, range(q))
+        rep.kernel_d, rep.sigma2_d, rep.noise = disc.kernel_, disc.sigma2, disc.noise
+    return rep
+
+
+def _fit_module2(ctx, rep, responses):
+    """Discrepancy and noise of the responses by maximum likelihood."""
+    idx = list(responses)
+    integrated = ctx.integrated.restrict(idx)
+    residual = rep.Y_e[:, idx] - integrated.mean
+    seed = _seed(np.random.SeedSequence([rep.seed, 1, _mask(idx)]))
+    roughness, sigma2_d, noise = rep.truth
+
+    def start(fit):
+        # The hyperparameters that generated the replicate: the natural
+        # first start of the search for their maximum-likelihood estimate.
+        kernel = clone(ctx.kernel_d).set_params(roughness=roughness)
+        S = sigma2_d[np.ix_(idx, idx)]
+        L = np.linalg.cholesky(
+            S + 1e-8 * np.diag(np.diag(S)) + 1e-12 * np.eye(len(idx))
+        )
+        return fit.pack(kernel.theta, np.maximum(noise[idx], 1e-300), L)
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", ConvergenceWarning)
+        disc = fit_discrepancy(
+            ctx.Xs,
+            residual,
+            integrated.cov,
+            **ctx.module2,
+            ranges={key: ctx.priors[key] for key in ("roughness", "variance")},
+            random_state=seed,
+            start=start,
+            max_iter=ctx.module2_max_iter,
+            responses=idx,
+        )
+    rep.n_unconverged += sum(issubclass(w.category, ConvergenceWarning) for w in caught)
+    return disc
+
+
+def posterior_block(ctx, replicates, subsets):
+    """Step 2b-2c for some replicates and subsets: posterior moments."""
+    r = ctx.prior.dim
+    means = np.empty((len(replicates), len(subsets), r))
+    covs = np.empty((len(replicates), len(subsets), r, r))
+    design = ctx.design
+    for i, rep in enumerate(replicates):
+        for j, subset in enumerate(subsets):
+            if ctx.fast:
+                kernel_d, sigma2_d, noise = rep.kernel_d, rep.sigma2_d, rep.noise
+                idx = list(subset)
+            else:
+                disc = _fit_module2(ctx, rep, subset)
+                kernel_d, sigma2_d, noise = disc.kernel_, disc.sigma2, disc.noise
+                # The fit is of the subset alone: embed it in q x q arrays.
+                full = np.zeros((ctx.q, ctx.q))
+                full[np.ix_(subset, subset)] = sigma2_d
+                noise_full = np.ones(ctx.q)
+                noise_full[list(subset)] = noise
+                sigma2_d, noise = full, noise_full
+                idx = list(subset)
+            like = SubsetLikelihood(
+                design, idx, rep.Y_e, kernel_d(ctx.Xs), ctx.H_d, sigma2_d, noise
+            )
+
+            def log_likelihood(thetas, like=like):
+                return like.log_likelihood(design.pieces(ctx.std_theta(thetas)))
+
+            seed = _seed(np.random.SeedSequence([rep.seed, 2, _mask(subset)]))
+            means[i, j], covs[i, j] = posterior_moments(
+                log_likelihood,
+                ctx.prior,
+                ctx.nodes,
+                ctx.weights,
+                like.log_likelihood(ctx.pieces),
+                seed=seed,
+            )
+    return means, covs
+
+
+def check_design_priors(discrepancy_prior, noise_prior, prior_units, d, q, y_scale):
+    """The designer's priors of the discrepancy and the noise, checked.
+
+    Returns a dict of ``(low, high)`` arrays in standardised units (keys
+    ``roughness``, ``variance``, ``mean``, ``noise``) and the ``correlation``
+    matrix or ``"random"``.
+    """
+    given = {} if discrepancy_prior is None else discrepancy_prior
+    if not isinstance(given, dict):
+        raise TypeError(
+            "discrepancy_prior must be a dict with keys among "
+            f"{sorted(DEFAULT_DISCREPANCY_PRIOR)}, got {type(given).__name__}."
+        )
+    unknown = set(given) - set(DEFAULT_DISCREPANCY_PRIOR)
+    if unknown:
+        raise ValueError(
+            f"discrepancy_prior has unknown keys {sorted(unknown)}; use "
+            f"{sorted(DEFAULT_DISCREPANCY_PRIOR)}."
+        )
+    spec = {**DEFAULT_DISCREPANCY_PRIOR, **given}
+    out = {
+        "roughness": check_interval(
+            spec["roughness"], "discrepancy_prior['roughness']", d, lower=0.0
+        ),
+        "variance": check_interval(
+            spec["variance"], "discrepancy_prior['variance']", q, lower=0.0
+        ),
+        "mean": check_interval(spec["mean"], "discrepancy_prior['mean']", q),
+        "noise": check_interval(
+            DEFAULT_NOISE_PRIOR if noise_prior is None else noise_prior,
+            "noise_prior",
+            q,
+            lower=0.0,
+        ),
+    }
+    if np.any(out["roughness"][0] <= 0):
+        raise ValueError("discrepancy_prior['roughness'] must be > 0.")
+    corr = spec["correlation"]
+    if isinstance(corr, str):
+        if corr not in ("random", "independent"):
+            raise ValueError(
+                "discrepancy_prior['correlation'] must be 'random', "
+                f"'independent' or a number in (-1/(q-1), 1), got {corr!r}."
+            )
+        if corr == "independent":
+            corr = np.eye(q)
+    elif isinstance(corr, Real):
+        low = -1.0 / (q - 1) if q > 1 else -1.0
+        if not low < corr < 1.0:
+            raise ValueError(
+                f"discrepancy_prior['correlation']={corr} gives a matrix that "
+                f"is not positive definite; use a number in ({low:.3g}, 1)."
+            )
+        corr = np.full((q, q), float(corr))
+        np.fill_diagonal(corr, 1.0)
+    else:
+        raise TypeError(
+            "discrepancy_prior['correlation'] must be 'random', 'independent' "
+            f"or a number, got {corr!r}."
+        )
+    out["correlation"] = corr
+    if prior_units == "user":
+        # Response units -> the standardised units used internally.
+        for key, power in (("variance", 2), ("noise", 2), ("mean", 1)):
+            lo, hi = out[key]
+            out[key] = (lo / y_scale**power, hi / y_scale**power)
+    return out

@@ -1,0 +1,377 @@
+"""The simulation runs: their design, running the simulator, checks.
+
+Module 1 needs simulations ``y_sim = f(X_sim, theta_sim)``. They are given
+(a precomputed dataset), run by the calibrator on a Latin hypercube over
+the range of the field inputs times the prior's support, or both; the
+result is one :class:`SimulationData`. The checks here make sure the runs
+can support an emulator and cover the prior and the field inputs.
+
+Examples
+--------
+>>> import numpy as np
+>>> from skmba._simulations import run_simulator
+>>> run_simulator(lambda X, t: X * t, np.ones((2, 1)), np.full((2, 1), 3.0))
+array([[3.],
+       [3.]])
+"""
+
+import time
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import sparse, stats
+from sklearn.utils.validation import check_array
+
+from skmba._regression import n_regression_terms
+
+# Share of the prior mass that must lie in the simulated range of theta
+# (less: error), and share that may lie outside it without a warning (the
+# simulator's own design leaves out 1e-3 per unbounded parameter).
+_PRIOR_MASS_ERROR = 0.01
+_PRIOR_MASS_WARNING = 0.02
+
+
+@dataclass(frozen=True)
+class SimulationData:
+    """The simulation runs in user units.
+
+    Attributes
+    ----------
+    X : ndarray of shape (N, d)
+    theta : ndarray of shape (N, r)
+    y : ndarray of shape (N, q)
+    n_simulator_runs : int
+        How many of the runs (the last ones) the simulator made in this fit.
+    """
+
+    X: np.ndarray
+    theta: np.ndarray
+    y: np.ndarray
+    n_simulator_runs: int = 0
+
+
+# ---------------------------------------------------------------- checks
+def nonfinite_rows(A):
+    """Indices of the rows of ``A`` with a NaN or an infinity.
+
+    Examples
+    --------
+    >>> nonfinite_rows(np.array([[1.0], [np.nan]]))
+    array([1])
+    """
+    return np.flatnonzero(~np.all(np.isfinite(A), axis=1))
+
+
+def _rows_text(bad):
+    return f"{bad[:10].tolist()}{' (and more)' if bad.size > 10 else ''}"
+
+
+def check_finite_rows(A, name, fix):
+    """Raise a ValueError naming ``name``, the bad rows and ``fix``."""
+    bad = nonfinite_rows(A)
+    if bad.size:
+        raise ValueError(f"{name} contains NaN or inf in rows {_rows_text(bad)}: {fix}")
+
+
+def as_array(A):
+    """``np.asarray(A)``, or None for what ``check_array`` should report.
+
+    Sparse matrices and ragged or otherwise unconvertible input are left to
+    scikit-learn's ``check_array``/``validate_data`` and their messages.
+    """
+    if A is None or sparse.issparse(A):
+        return None
+    try:
+        return np.asarray(A)
+    except (TypeError, ValueError):
+        return None
+
+
+def check_2d(A, name, shape):
+    """``A`` must be a 2-D array; the message says how to reshape a vector."""
+    A = as_array(A)
+    if A is None:
+        return
+    ndim = A.ndim
+    if ndim != 2:
+        fix = (
+            f"use {name}.reshape(-1, 1) for a single column"
+            if ndim == 1
+            else "pass one row per sample"
+        )
+        raise ValueError(
+            f"{name} must be a 2-D array of shape {shape}, got {ndim}-D with "
+            f"shape {A.shape}; {fix}."
+        )
+
+
+# ------------------------------------------------------------- simulator
+def _check_simulator_output(Y, n, q):
+    try:
+        Y = np.asarray(Y, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(
+            f"simulator returned a {type(Y).__name__} that is not an array of "
+            f"numbers ({exc}); it must return a float array of shape "
+            f"({n}, {q if q is not None else 'q'}): one row per run and one "
+            "column per response."
+        ) from exc
+    if Y.ndim == 1 and (q in (None, 1)):
+        Y = Y.reshape(-1, 1)
+    if Y.ndim != 2 or Y.shape[0] != n or (q is not None and Y.shape[1] != q):
+        expected = f"({n}, {q if q is not None else 'q'})"
+        raise ValueError(
+            f"simulator returned an array of shape {np.shape(Y)} for runs "
+            f"0..{n - 1}; it must return {expected}: one row per run and one "
+            "column per response."
+        )
+    return Y
+
+
+def run_simulator(simulator, X, theta, q=None, *, check_finite=True):
+    """Run ``simulator(X, theta)`` and check what it returns.
+
+    When the batch call raises, the runs are retried one by one so that the
+    error names the failing run and its inputs; the original exception is
+    chained (``__cause__``). ``check_finite=False`` leaves NaN and inf in
+    the output for the caller to report.
+    """
+    try:
+        Y = simulator(X, theta)
+    except Exception as batch_error:
+        for i in range(len(X)):
+            try:
+                simulator(X[i : i + 1], theta[i : i + 1])
+            except Exception as exc:
+                raise RuntimeError(
+                    f"simulator raised {type(exc).__name__} at run {i} (of "
+                    f"{len(X)}) with X={X[i].tolist()}, theta={theta[i].tolist()}: "
+                    f"{exc}. Fix the simulator for these inputs, or run the "
+                    "simulations yourself and pass the successful ones to "
+                    "fit(X, y, X_sim=..., theta_sim=..., y_sim=...)."
+                ) from exc
+        raise RuntimeError(
+            f"simulator raised {type(batch_error).__name__} on the batch of "
+            f"{len(X)} runs but on none of them alone: {batch_error}. Check "
+            "that it handles arrays of several rows (X of shape (n, d), theta "
+            "of shape (n, r))."
+        ) from batch_error
+    Y = _check_simulator_output(Y, len(X), q)
+    bad = nonfinite_rows(Y)
+    if check_finite and bad.size:
+        raise ValueError(
+            f"simulator returned non-finite values (NaN or inf) for runs "
+            f"{bad.tolist()[:10]}. Fix the model for these inputs or narrow "
+            "the prior / input range."
+        )
+    return Y
+
+
+# ------------------------------------------------------------ the runs
+def given_simulations(X, q, X_sim, theta_sim, y_sim):
+    """The precomputed simulation dataset, checked; None when not given."""
+    given = [a is not None for a in (X_sim, theta_sim, y_sim)]
+    if not any(given):
+        return None
+    if not all(given):
+        raise ValueError(
+            "Pass X_sim, theta_sim and y_sim together (a precomputed "
+            "simulation dataset), or none of them."
+        )
+    check_2d(X_sim, "X_sim", "(n_simulations, d)")
+    check_2d(theta_sim, "theta_sim", "(n_simulations, r)")
+    y_array = as_array(y_sim)
+    if y_array is not None and y_array.ndim not in (1, 2):
+        raise ValueError(
+            f"y_sim must be an array of shape (n_simulations, q), got shape "
+            f"{y_array.shape}."
+        )
+    arrays = {}
+    for name, A in (("X_sim", X_sim), ("theta_sim", theta_sim), ("y_sim", y_sim)):
+        A = check_array(
+            A,
+            input_name=name,
+            ensure_2d=False,
+            ensure_all_finite=False,
+            ensure_min_samples=0,
+            dtype=float,
+        )
+        arrays[name] = A if A.ndim == 2 else A.reshape(-1, 1)
+    X_sim, theta_sim, y_sim = arrays["X_sim"], arrays["theta_sim"], arrays["y_sim"]
+    if not len(X_sim) == len(theta_sim) == len(y_sim):
+        raise ValueError(
+            "X_sim, theta_sim and y_sim must have the same number of rows, "
+            f"got {len(X_sim)}, {len(theta_sim)} and {len(y_sim)}."
+        )
+    if len(X_sim) == 0:
+        raise ValueError(
+            "X_sim, theta_sim and y_sim are empty (0 simulations): pass the "
+            "simulation dataset, or None and a simulator."
+        )
+    for name, A in arrays.items():
+        check_finite_rows(
+            A,
+            name,
+            "drop these rows (failed simulation runs) from X_sim, theta_sim "
+            "and y_sim alike.",
+        )
+    if X_sim.shape[1] != X.shape[1]:
+        raise ValueError(
+            f"X_sim has {X_sim.shape[1]} columns but X has {X.shape[1]}: "
+            "the simulations must use the same design variables."
+        )
+    if y_sim.shape[1] != q:
+        raise ValueError(
+            f"y_sim has {y_sim.shape[1]} responses but y has {q}: the "
+            "simulated and observed responses must be the same, in the "
+            "same order."
+        )
+    return SimulationData(X_sim, theta_sim, y_sim)
+
+
+def check_design_size(n_total, regression, k):
+    """Enough runs for an emulator on ``k`` inputs with ``regression``."""
+    needed = max(3, n_regression_terms(regression, k) + 1)
+    if n_total and n_total < needed:
+        raise ValueError(
+            f"{n_total} simulations are too few to fit an emulator: "
+            f"regression={regression!r} on d + r = {k} inputs needs at "
+            f"least {needed}; provide about 10 per input ({10 * k}) with "
+            "n_simulations or X_sim, theta_sim and y_sim."
+        )
+
+
+def simulation_design(X, prior, n_runs, given, seed):
+    """A Latin hypercube over the range of ``X`` (and of the given runs)
+    times the prior's central 0.999 interval."""
+    lo_x, hi_x = X.min(axis=0), X.max(axis=0)
+    if given is not None:
+        lo_x = np.minimum(lo_x, given.X.min(axis=0))
+        hi_x = np.maximum(hi_x, given.X.max(axis=0))
+    bounds = prior.bounds(0.999)
+    d, r = X.shape[1], prior.dim
+    u = stats.qmc.LatinHypercube(d=d + r, seed=seed).random(n_runs)
+    X_run = lo_x + (hi_x - lo_x) * u[:, :d]
+    theta_run = bounds[:, 0] + (bounds[:, 1] - bounds[:, 0]) * u[:, d:]
+    return X_run, theta_run
+
+
+def collect_simulations(simulator, X, q, prior, given, n_runs, seed, say):
+    """The given runs and ``n_runs`` simulator runs, stacked.
+
+    Returns the runs even when some of the simulator's are not finite (so
+    that the caller can keep them); :func:`check_simulator_runs` reports
+    those.
+    """
+    parts = [] if given is None else [(given.X, given.theta, given.y)]
+    if simulator is not None:
+        X_run, theta_run = simulation_design(X, prior, n_runs, given, seed)
+        started = time.perf_counter()
+        y_run = run_simulator(simulator, X_run, theta_run, q, check_finite=False)
+        say(f"simulator: {n_runs} runs in {time.perf_counter() - started:.1f} s")
+        parts.append((X_run, theta_run, y_run))
+    else:
+        n_runs = 0
+    if not parts:
+        raise ValueError(
+            "No simulations: pass a simulator (and a prior) to the "
+            "constructor, or X_sim, theta_sim and y_sim to fit."
+        )
+    X_sim, theta_sim, y_sim = (np.vstack(p) for p in zip(*parts, strict=True))
+    return SimulationData(X_sim, theta_sim, y_sim, n_runs)
+
+
+def check_simulator_runs(sims):
+    """The simulator's runs must be finite; the error says how to recover."""
+    n_run, N = sims.n_simulator_runs, len(sims.y)
+    bad = nonfinite_rows(sims.y[N - n_run :])
+    if not bad.size:
+        return
+    first = bad[0] + N - n_run
+    rows = (bad + N - n_run).tolist()
+    raise ValueError(
+        f"simulator returned non-finite values (NaN or inf) for "
+        f"{bad.size} of {n_run} runs, e.g. run {bad[0]} with "
+        f"X={sims.X[first].tolist()}, theta={sims.theta[first].tolist()}. "
+        "Fix the model for these inputs or narrow the prior / input "
+        f"range; or drop rows {rows[:10]}{' ...' if len(rows) > 10 else ''}"
+        " of X_sim_, theta_sim_ and y_sim_ (which keep all runs) and "
+        "pass the rest to fit(X, y, X_sim=..., theta_sim=..., y_sim=...) "
+        "with simulator=None."
+    )
+
+
+def _constant_columns(A):
+    spread = np.ptp(A, axis=0)
+    return np.flatnonzero(spread <= 1e-12 * np.abs(A).max(axis=0))
+
+
+def check_simulation_design(X, prior, sims):
+    """Whether the simulations can support an emulator and the prior."""
+    n_sim = len(sims.X)
+    fixed = _constant_columns(sims.theta)
+    if fixed.size:
+        raise ValueError(
+            f"theta_sim column(s) {fixed.tolist()} are constant (e.g. "
+            f"theta[{fixed[0]}] = {sims.theta[0, fixed[0]]:.6g} in every "
+            "run): the simulations carry no information on how the model "
+            "depends on theta. Vary each parameter over the prior's range "
+            "in the simulations."
+        )
+    fixed = _constant_columns(sims.y)
+    if fixed.size:
+        raise ValueError(
+            f"y_sim column(s) {fixed.tolist()} are constant over the "
+            "simulations: a response that does not change with theta or x "
+            "carries no information on theta. Remove these responses from "
+            "y and y_sim."
+        )
+    _check_prior_coverage(prior, sims.theta, n_sim)
+    # The same margin for the observation inputs: a Latin hypercube over
+    # the range of X (the simulator's design) stops short of its ends.
+    lo, hi = sims.X.min(axis=0), sims.X.max(axis=0)
+    margin = (1.0 / max(n_sim - 1, 1) + 1e-9) * (hi - lo)
+    outside = np.any((X < lo - margin) | (X > hi + margin), axis=1)
+    if np.any(outside):
+        warnings.warn(
+            f"{int(outside.sum())} observation input(s) lie outside the range "
+            "of the simulations (widened by one mean spacing of the runs): "
+            "the emulator extrapolates there. Extend the simulation design "
+            "to cover X.",
+            UserWarning,
+            stacklevel=5,
+        )
+
+
+def _check_prior_coverage(prior, theta_sim, n_sim):
+    """The prior's mass on the simulated range of theta.
+
+    The range is widened by one mean spacing of the runs at each end: a
+    space-filling design leaves about that much uncovered at the edges,
+    where the emulator extrapolates harmlessly.
+    """
+    lo, hi = theta_sim.min(axis=0), theta_sim.max(axis=0)
+    margin = (hi - lo) / max(n_sim - 1, 1)
+    inside = prior.mass_inside(lo - margin, hi + margin)
+    box = ", ".join(
+        f"theta[{j}] in [{a:.4g}, {b:.4g}]"
+        for j, (a, b) in enumerate(zip(lo, hi, strict=True))
+    )
+    if inside < _PRIOR_MASS_ERROR:
+        raise ValueError(
+            f"The prior puts {inside:.2%} of its mass on the simulated range "
+            f"of theta_sim ({box}): the simulations miss the prior, and the "
+            "emulator would extrapolate over all of it. Simulate over the "
+            "prior's support (e.g. let the calibrator run the simulator), "
+            "or correct the prior (are its units those of theta_sim?)."
+        )
+    if 1.0 - inside > _PRIOR_MASS_WARNING:
+        warnings.warn(
+            f"{1.0 - inside:.1%} of the prior mass lies outside the simulated "
+            f"range of theta_sim ({box}): the emulator extrapolates there, "
+            "and module 2 integrates it over the whole prior. Extend the "
+            "simulations to cover the prior, or narrow the prior.",
+            UserWarning,
+            stacklevel=6,
+        )

@@ -1,0 +1,123 @@
+"""Shared fixtures: a small global model and its dense reference formulas."""
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from skmba import MultiResponseGP
+from skmba._emulator import Emulator
+from skmba._posterior import GlobalModel
+from skmba._regression import regression_basis
+from skmba.kernels import Exp, Gauss
+
+
+def discrepancy(sigma2_d, noise):
+    """The module-2 estimates the global model reads."""
+    return SimpleNamespace(
+        kernel_=Gauss(roughness=2.0),
+        regression="constant",
+        sigma2=sigma2_d,
+        noise=noise,
+    )
+
+
+@pytest.fixture(scope="session")
+def problem():
+    """One design variable and one parameter: N=14 runs, n=6 field data."""
+    rng = np.random.default_rng(0)
+    N, n = 14, 6
+    X_m = rng.uniform(-1, 1, size=(N, 2))  # one design variable, one parameter
+    Y_m = np.column_stack(
+        [np.sin(2 * X_m[:, 0]) * X_m[:, 1], X_m[:, 0] + 0.5 * X_m[:, 1] ** 2]
+    )
+    gp = MultiResponseGP(
+        Exp(roughness=[1.5, 0.8]),
+        regression="linear",
+        alpha=1e-6,
+        optimizer=None,
+        normalize_y=False,
+    ).fit(X_m, Y_m)
+    X_e = rng.uniform(-1, 1, size=(n, 1))
+    Y_e = np.column_stack([np.sin(2 * X_e[:, 0]) * 0.3, X_e[:, 0] + 0.1]) + 0.05
+    A = rng.normal(size=(2, 2))
+    sigma2_d = 0.1 * (A @ A.T + np.eye(2))
+    noise = np.array([0.01, 0.02])
+    gm = GlobalModel(
+        Emulator(gp, X_m, Y_m, "linear"), X_e, Y_e, discrepancy(sigma2_d, noise)
+    )
+    return gp, gm, X_m, Y_m, X_e, Y_e, sigma2_d, noise
+
+
+def _dense_global(problem, theta, component=None, X_star=None):
+    """V_Y, H_Y, Y of Eqs. 4.22-4.29 assembled densely (and module 4)."""
+    gp, _gm, X_m, Y_m, X_e, Y_e, sigma2_d, noise = problem
+    km, kd = gp.kernel_, Gauss(roughness=2.0)
+    S_m = gp.likelihood_.sigma2
+    q, N, n = 2, len(X_m), len(X_e)
+    P_e = np.hstack([X_e, np.full((n, 1), theta)])
+    R_mm = km(X_m) + 1e-6 * np.eye(N)
+    A = np.kron(S_m, R_mm)
+    B = np.kron(S_m, km(X_m, P_e))
+    # The nugget is on the whole model correlation R(D), field points too.
+    D = (
+        np.kron(S_m, km(P_e) + 1e-6 * np.eye(n))
+        + np.kron(sigma2_d, kd(X_e))
+        + np.kron(np.diag(noise), np.eye(n))
+    )
+    V = np.block([[A, B], [B.T, D]])
+    H_m, H_me = regression_basis(X_m, "linear"), regression_basis(P_e, "linear")
+    H_d = regression_basis(X_e, "constant")
+    I = np.eye(q)
+    H = np.block(
+        [
+            [np.kron(I, H_m), np.zeros((N * q, q))],
+            [np.kron(I, H_me), np.kron(I, H_d)],
+        ]
+    )
+    y = np.concatenate([Y_m.T.ravel(), Y_e.T.ravel()])
+    Vi = np.linalg.inv(V)
+    W = np.linalg.inv(H.T @ Vi @ H)
+    beta = W @ H.T @ Vi @ y
+    r = y - H @ beta
+    M, P = len(y), H.shape[1]
+    ll = -0.5 * (
+        (M - P) * np.log(2 * np.pi)
+        + np.linalg.slogdet(V)[1]
+        - np.linalg.slogdet(W)[1]
+        + r @ Vi @ r
+    )
+    if component is None:
+        return ll
+    s = len(X_star)
+    P_s = np.hstack([X_star, np.full((s, 1), theta)])
+    cov_top = np.kron(S_m, km(X_m, P_s))
+    cov_bot_m = np.kron(S_m, km(P_e, P_s))
+    cov_bot_d = np.kron(sigma2_d, kd(X_e, X_star))
+    zeros = np.zeros_like(cov_top)
+    h_m = np.kron(I, regression_basis(P_s, "linear"))
+    h_d = np.kron(I, regression_basis(X_star, "constant"))
+    if component == "model":
+        Vs = np.vstack([cov_top, cov_bot_m])
+        h = np.hstack([h_m, np.zeros_like(h_d)])
+        prior = np.kron(S_m, km(P_s))
+    elif component == "discrepancy":
+        Vs = np.vstack([zeros, cov_bot_d])
+        h = np.hstack([np.zeros_like(h_m), h_d])
+        prior = np.kron(sigma2_d, kd(X_star))
+    else:
+        Vs = np.vstack([cov_top, cov_bot_m + cov_bot_d])
+        h = np.hstack([h_m, h_d])
+        prior = np.kron(S_m, km(P_s)) + np.kron(sigma2_d, kd(X_star))
+        if component == "observation":
+            prior = prior + np.kron(np.diag(noise), np.eye(s))
+    mean = h @ beta + Vs.T @ Vi @ r
+    U = h.T - H.T @ Vi @ Vs
+    cov = prior - Vs.T @ Vi @ Vs + U.T @ W @ U
+    return mean.reshape(q, s).T, np.diag(cov).reshape(q, s).T
+
+
+@pytest.fixture(scope="session")
+def dense_global():
+    """The dense Eqs. 4.22-4.30 (and module-4 kriging) as a function."""
+    return _dense_global
