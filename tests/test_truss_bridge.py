@@ -2,7 +2,7 @@
 
 The finite element cases are checked against hand calculations: a single bar,
 the method of joints and the unit-load method. They run through the same
-``_Truss`` class that the bridge dataset uses.
+``Truss`` class that the bridge dataset uses.
 """
 
 import pickle
@@ -12,17 +12,17 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from skmba.datasets._truss_bridge import (
+from skmba.datasets import make_truss_bridge
+from skmba.datasets._truss_bridge_model import (
     N_PANELS,
     PANEL_LENGTH,
     SENSORS,
     THERMAL_EXPANSION,
-    _bridge_geometry,
-    _bridge_truss,
-    _temperature_profile,
-    _Truss,
-    make_truss_bridge,
+    bridge_geometry,
+    bridge_truss,
+    temperature_profile,
 )
+from skmba.datasets._truss_solver import Truss
 
 E = 70_000.0  # MPa
 AREA = 100.0  # mm^2
@@ -34,7 +34,7 @@ DT = 30.0  # degC
 # ----------------------------------------------------------------- one bar
 def _bar(supports, springs=None, angle=0.0):
     end = LENGTH * np.array([np.cos(angle), np.sin(angle)])
-    return _Truss(
+    return Truss(
         [[0.0, 0.0], end],
         [[0, 1]],
         E=E,
@@ -89,14 +89,14 @@ def _triangle(areas=AREA):
     # 3-4-5 triangle: A(0, 0), B(4000, 0), C(2000, 1500); bars AB, AC, BC.
     nodes = [[0.0, 0.0], [4000.0, 0.0], [2000.0, 1500.0]]
     bars = [[0, 1], [0, 2], [1, 2]]
-    return _Truss(nodes, bars, E=E, A=areas, alpha=ALPHA, supports=[0, 1, 3])
+    return Truss(nodes, bars, E=E, A=areas, alpha=ALPHA, supports=[0, 1, 3])
 
 
 def _warren():
     # Two-panel Warren truss, 3-4-5 diagonals: bottom 0-1-2, top 3-4.
     nodes = [[0, 0], [3000, 0], [6000, 0], [1500, 2000], [4500, 2000]]
     bars = [[0, 1], [1, 2], [3, 4], [0, 3], [3, 1], [1, 4], [4, 2]]
-    return _Truss(nodes, bars, E=E, A=AREA, alpha=ALPHA, supports=[0, 1, 5])
+    return Truss(nodes, bars, E=E, A=AREA, alpha=ALPHA, supports=[0, 1, 5])
 
 
 def test_triangle_bar_forces_match_method_of_joints():
@@ -166,7 +166,7 @@ def test_several_load_cases_as_columns():
 
 # ----------------------------------------------------- bridge truss checks
 def test_global_equilibrium_with_spring():
-    truss, spring_dof = _bridge_truss(k=552.26)
+    truss, spring_dof = bridge_truss(k=552.26)
     rng = np.random.default_rng(2)
     loads = rng.normal(size=truss.n_dof) * 1e3
     dT = rng.uniform(0.0, 30.0, size=truss.n_bars)
@@ -185,7 +185,7 @@ def test_global_equilibrium_with_spring():
 
 
 def test_stiffness_symmetric_singular_without_supports_positive_with():
-    truss, _ = _bridge_truss(k=0.0)
+    truss, _ = bridge_truss(k=0.0)
     K = truss.stiffness()
     np.testing.assert_allclose(K, K.T, rtol=0, atol=1e-9)
     eig = np.linalg.eigvalsh(K)
@@ -194,7 +194,7 @@ def test_stiffness_symmetric_singular_without_supports_positive_with():
     reduced = np.linalg.eigvalsh(truss.stiffness(reduced=True))
     assert reduced.min() > 1e-6 * reduced.max()
     # The spring adds k to one diagonal entry.
-    stiff, dof = _bridge_truss(k=552.26)
+    stiff, dof = bridge_truss(k=552.26)
     diff = stiff.stiffness() - K
     assert diff[dof, dof] == pytest.approx(552.26)
     diff[dof, dof] = 0.0
@@ -205,7 +205,7 @@ def test_stiffness_symmetric_singular_without_supports_positive_with():
     "make",
     [
         # A square without a diagonal sways.
-        lambda: _Truss(
+        lambda: Truss(
             [[0, 0], [1, 0], [1, 1], [0, 1]],
             [[0, 1], [1, 2], [2, 3], [3, 0]],
             E=E,
@@ -215,7 +215,7 @@ def test_stiffness_symmetric_singular_without_supports_positive_with():
         # A bar pinned at one end only rotates freely.
         lambda: _bar(supports=[0, 1]),
         # A node connected to nothing.
-        lambda: _Truss(
+        lambda: Truss(
             [[0, 0], [1000, 0], [5, 5]], [[0, 1]], E=E, A=AREA, supports=[0, 1, 3]
         ),
     ],
@@ -228,13 +228,13 @@ def test_mechanism_raises(make):
 
 def test_truss_rejects_bad_definitions():
     with pytest.raises(ValueError, match="A must be positive"):
-        _Truss([[0, 0], [1, 0]], [[0, 1]], E=E, A=0.0)
+        Truss([[0, 0], [1, 0]], [[0, 1]], E=E, A=0.0)
     with pytest.raises(ValueError, match="bars"):
-        _Truss([[0, 0], [1, 0]], [[0, 2]], E=E, A=AREA)
+        Truss([[0, 0], [1, 0]], [[0, 2]], E=E, A=AREA)
     with pytest.raises(ValueError, match="distinct"):
-        _Truss([[0, 0], [0, 0]], [[0, 1]], E=E, A=AREA)
+        Truss([[0, 0], [0, 0]], [[0, 1]], E=E, A=AREA)
     with pytest.raises(ValueError, match="spring"):
-        _Truss([[0, 0], [1, 0]], [[0, 1]], E=E, A=AREA, springs={2: -1.0})
+        Truss([[0, 0], [1, 0]], [[0, 1]], E=E, A=AREA, springs={2: -1.0})
 
 
 # ------------------------------------------------------------ bridge model
@@ -247,7 +247,7 @@ def test_model_without_spring_expands_freely():
     X = np.array([[10.0], [20.0], [35.0], [45.49]])
     np.testing.assert_allclose(data.simulator(X, np.zeros((4, 1))), 0.0, atol=1e-9)
     # Free expansion of the span at the roller.
-    truss, dof = _bridge_truss(k=0.0)
+    truss, dof = bridge_truss(k=0.0)
     u = truss.solve(dT=25.0)
     assert u[dof] == pytest.approx(THERMAL_EXPANSION * 25.0 * SPAN, rel=1e-10)
 
@@ -262,9 +262,9 @@ def test_model_with_stiff_spring_compresses_lower_chord():
     np.testing.assert_allclose(per_degree, per_degree[[0, 0, 0]], rtol=1e-12)
     # The roller no longer moves, so the lower chord's total elongation is
     # zero: its mean mechanical strain is -alpha dT.
-    truss, _ = _bridge_truss(k=1e12)
+    truss, _ = bridge_truss(k=1e12)
     u = truss.solve(dT=25.0)
-    _, _, names, kinds = _bridge_geometry()
+    _, _, names, kinds = bridge_geometry()
     lower = [i for i, kind in enumerate(kinds) if kind == "lower chord"]
     assert [names[i] for i in lower] == [f"L{i}-L{i + 1}" for i in range(N_PANELS)]
     strain = truss.bar_strains(u, dT=25.0)[lower]
@@ -276,12 +276,12 @@ def test_model_with_stiff_spring_compresses_lower_chord():
 
 def test_spring_force_follows_series_springs():
     # K_t: horizontal stiffness of the truss at the roller (unit-load solve).
-    truss, dof = _bridge_truss(k=0.0)
+    truss, dof = bridge_truss(k=0.0)
     unit = np.zeros(truss.n_dof)
     unit[dof] = 1.0
     k_truss = 1.0 / truss.solve(unit)[dof]
     k, dT = 552.26, 20.0
-    spring, _ = _bridge_truss(k=k)
+    spring, _ = bridge_truss(k=k)
     u = spring.solve(dT=dT)
     force = -spring.spring_forces(u)[dof]  # compression in the spring
     free = THERMAL_EXPANSION * dT * SPAN
@@ -348,9 +348,9 @@ def test_reality_differs_from_model_by_the_gradient():
 @pytest.mark.parametrize("p", [1.0, 2.0, 3.0])
 def test_temperature_profile_by_member(p):
     g = 0.4
-    truss, _ = _bridge_truss()
-    kinds = _bridge_geometry()[3]
-    profile = _temperature_profile(truss, g, p)
+    truss, _ = bridge_truss()
+    kinds = bridge_geometry()[3]
+    profile = temperature_profile(truss, g, p)
     kinds = np.array(kinds)
     # Mean of (1 - g) + g eta**p over the height the member spans.
     expected = {

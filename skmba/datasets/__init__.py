@@ -6,13 +6,18 @@
 * :func:`make_truss_bridge`: a 2-D truss finite element model in the spirit
   of the aluminium bridge of thesis sections 5.2 and 6.4 (thermal loading,
   a horizontal spring as the parameter, strain gauges as responses).
+
+Examples
+--------
+>>> from skmba.datasets import make_cantilever, make_truss_bridge
+>>> make_cantilever(random_state=0).y_sim.shape
+(70, 2)
+>>> make_truss_bridge(10, 5, sensors=["SA"], random_state=0).y_obs.shape
+(5, 1)
 """
 
-from skmba.datasets._cantilever import (
-    CantileverModel,
-    CantileverReality,
-    make_cantilever,
-)
+from skmba.datasets._cantilever import make_cantilever
+from skmba.datasets._cantilever_model import CantileverModel, CantileverReality
 from skmba.datasets._truss_bridge import make_truss_bridge
 
 __all__ = [

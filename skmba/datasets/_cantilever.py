@@ -11,38 +11,48 @@ reality at the true parameters.
 Units throughout are N, mm and MPa (N/mm²): forces in N, moments in N·mm,
 lengths and displacements in mm, rotations in rad, Young's modulus in MPa,
 second moment of area in mm⁴ and deformation energy in N·mm.
+
+The model and the reality live in :mod:`skmba.datasets._cantilever_model`;
+this module checks the arguments, draws the designs, adds noise and outliers
+and assembles the dataset, one step per function.
+
+Examples
+--------
+>>> from skmba.datasets._cantilever import make_cantilever
+>>> data = make_cantilever(10, 5, snr_db=20.0, n_outliers=1, random_state=0)
+>>> data.y_obs.shape, data.outlier_indices.shape
+((5, 2), (1,))
 """
 
 from __future__ import annotations
 
 import math
-import numbers
 import textwrap
 from dataclasses import dataclass
 
 import numpy as np
 from scipy import stats
-from sklearn.utils import Bunch
 
-from skmba.datasets._design import as_generator, latin_hypercube, per_response
+from skmba._validation import check_count
+from skmba.datasets._cantilever_model import (
+    RESPONSE_UNITS,
+    RESPONSES,
+    CantileverModel,
+    CantileverReality,
+)
+from skmba.datasets._design import (
+    add_noise,
+    as_generator,
+    calibration_bunch,
+    check_positive,
+    latin_hypercube,
+    noise_variance,
+    per_response,
+    scale_to_bounds,
+)
 
 __all__ = ["CantileverModel", "CantileverReality", "make_cantilever"]
 
-#: Responses in the order of Table 6.1 of the thesis (letters A to E).
-RESPONSES = (
-    "tip_displacement",  # A: displacement at point A (beam tip, x = L)
-    "energy",  # B: deformation energy of the beam
-    "tip_rotation",  # C: rotation angle at point A (beam tip)
-    "mid_displacement",  # D: displacement at point B (mid-span, x = L/2)
-    "quarter_displacement",  # E: displacement at point C (quarter-span, x = L/4)
-)
-RESPONSE_UNITS = {
-    "tip_displacement": "mm",
-    "energy": "N*mm",
-    "tip_rotation": "rad",
-    "mid_displacement": "mm",
-    "quarter_displacement": "mm",
-}
 _PARAMETER_SETS = (("E",), ("E", "I"))
 _DESIGN_SETS = (("force",), ("force", "moment"))
 _PRIORS = ("uniform", "gaussian")
@@ -60,205 +70,24 @@ _GAUSS_2D_COV = ((1.0e8, 0.0), (0.0, 4.5e15))
 _OUTLIER_SHIFT = 6.0
 
 
-def _beam_responses(force, moment, E, I, length, spring_stiffness, names):
-    """Closed-form responses of a tip-loaded cantilever on a rotational spring.
-
-    All inputs broadcast; ``spring_stiffness = inf`` gives the fixed support.
-    Returns an array of shape ``(n, len(names))``.
-    """
-    L = length
-    EI = E * I
-    support_moment = force * L + moment
-    phi = support_moment / spring_stiffness  # rigid rotation of the support
-
-    def w(x):
-        return (force * x**2 * (3.0 * L - x) / 6.0 + moment * x**2 / 2.0) / EI + (
-            phi * x
-        )
-
-    out = {}
-    for name in names:
-        if name == "tip_displacement":
-            out[name] = w(L)
-        elif name == "mid_displacement":
-            out[name] = w(L / 2.0)
-        elif name == "quarter_displacement":
-            out[name] = w(L / 4.0)
-        elif name == "tip_rotation":
-            out[name] = (force * L**2 / 2.0 + moment * L) / EI + phi
-        elif name == "energy":
-            bending = (
-                force**2 * L**3 / 3.0 + force * moment * L**2 + moment**2 * L
-            ) / (2.0 * EI)
-            out[name] = bending + support_moment**2 / (2.0 * spring_stiffness)
-        else:  # pragma: no cover - names are validated upstream
-            raise ValueError(f"unknown response {name!r}")
-    return np.column_stack([np.broadcast_to(out[n], np.shape(force)) for n in names])
-
-
-def _check_X(X, n_columns, names):
-    X = np.asarray(X, dtype=float)
-    if X.ndim != 2 or X.shape[1] != n_columns:
-        raise ValueError(
-            f"X must be a 2-D array with {n_columns} column(s) {names}, "
-            f"got shape {X.shape}"
-        )
-    return X
-
-
-def _loads(X, design_variable_names):
-    force = X[:, 0]
-    if "moment" in design_variable_names:
-        moment = X[:, 1]
-    else:
-        moment = np.zeros_like(force)
-    return force, moment
-
-
-@dataclass(frozen=True)
-class CantileverModel:
-    """Fixed-support cantilever model ``y^m(x, theta)`` (the simulator).
-
-    A picklable callable: ``model(X, theta)`` returns the responses of an
-    Euler-Bernoulli cantilever with a fixed support, row by row.
-
-    Parameters
-    ----------
-    response_names : tuple of str, default=("tip_displacement", "energy")
-        Responses (columns of the output), see :func:`make_cantilever`.
-    design_variable_names : tuple of str, default=("force",)
-        Columns of ``X``: ``("force",)`` or ``("force", "moment")``.
-    parameter_names : tuple of str, default=("E",)
-        Columns of ``theta``: ``("E",)`` or ``("E", "I")``.
-    length : float, default=3000.0
-        Beam length ``L`` [mm].
-    I : float, default=6.75e8
-        Second moment of area [mm⁴] used when ``"I"`` is not a calibration
-        parameter (Table 4.1).
-
-    Examples
-    --------
-    >>> model = CantileverModel()
-    >>> y = model([[10e3]], [[70e3]])  # F L^3/(3EI), F^2 L^3/(6EI)
-    >>> [round(float(v), 3) for v in y[0]]
-    [1.905, 9523.81]
-    """
-
-    response_names: tuple = ("tip_displacement", "energy")
-    design_variable_names: tuple = ("force",)
-    parameter_names: tuple = ("E",)
-    length: float = 3000.0
-    I: float = 6.75e8
-
-    def __call__(self, X, theta):
-        """Evaluate the model.
-
-        Parameters
-        ----------
-        X : array-like of shape (n, d)
-            Design variables (force [N] and optionally moment [N·mm]).
-        theta : array-like of shape (n, r) or (r,)
-            Calibration parameters (E [MPa] and optionally I [mm⁴]), one row
-            per row of ``X``; a 1-D ``theta`` is used for every row.
-
-        Returns
-        -------
-        Y : ndarray of shape (n, q)
-        """
-        X = _check_X(X, len(self.design_variable_names), self.design_variable_names)
-        r = len(self.parameter_names)
-        theta = np.asarray(theta, dtype=float)
-        if theta.ndim == 1 and theta.shape[0] == r:
-            theta = np.broadcast_to(theta, (X.shape[0], r))
-        if theta.ndim != 2 or theta.shape != (X.shape[0], r):
-            raise ValueError(
-                f"theta must have shape ({X.shape[0]}, {r}) or ({r},) for "
-                f"parameters {self.parameter_names}, got shape {theta.shape}"
-            )
-        force, moment = _loads(X, self.design_variable_names)
-        E = theta[:, 0]
-        I = theta[:, 1] if r == 2 else self.I
-        return _beam_responses(
-            force, moment, E, I, self.length, np.inf, self.response_names
-        )
-
-
-@dataclass(frozen=True)
-class CantileverReality:
-    """Spring-supported cantilever ``y^e(x)`` at the true parameters.
-
-    A picklable callable: ``reality(X)`` returns the noise-free responses of
-    the cantilever whose support is a rotational spring of stiffness
-    ``spring_stiffness`` (``inf`` recovers the fixed-support model).
-
-    Parameters
-    ----------
-    response_names : tuple of str, default=("tip_displacement", "energy")
-        Responses (columns of the output), see :func:`make_cantilever`.
-    design_variable_names : tuple of str, default=("force",)
-        Columns of ``X``: ``("force",)`` or ``("force", "moment")``.
-    E : float, default=70e3
-        True Young's modulus ``E*`` [MPa].
-    I : float, default=6.75e8
-        True second moment of area ``I*`` [mm⁴].
-    spring_stiffness : float, default=1.5e12
-        Rotational stiffness ``K*`` of the support [N·mm/rad].
-    length : float, default=3000.0
-        Beam length ``L`` [mm].
-
-    Examples
-    --------
-    >>> reality = CantileverReality()
-    >>> y = reality([[10e3]])  # model + F L^2/K*, + (F L)^2/(2 K*)
-    >>> [round(float(v), 3) for v in y[0]]
-    [1.965, 9823.81]
-    """
-
-    response_names: tuple = ("tip_displacement", "energy")
-    design_variable_names: tuple = ("force",)
-    E: float = 70.0e3
-    I: float = 6.75e8
-    spring_stiffness: float = 1.5e12
-    length: float = 3000.0
-
-    def __call__(self, X):
-        """Evaluate the reality.
-
-        Parameters
-        ----------
-        X : array-like of shape (n, d)
-            Design variables (force [N] and optionally moment [N·mm]).
-
-        Returns
-        -------
-        Y : ndarray of shape (n, q)
-        """
-        X = _check_X(X, len(self.design_variable_names), self.design_variable_names)
-        force, moment = _loads(X, self.design_variable_names)
-        return _beam_responses(
-            force,
-            moment,
-            self.E,
-            self.I,
-            self.length,
-            self.spring_stiffness,
-            self.response_names,
-        )
-
-
 # --------------------------------------------------------------------------
 # input validation
 # --------------------------------------------------------------------------
 
 
+def _as_tuple(value):
+    """``value`` as a tuple: a string or a non-iterable becomes a 1-tuple."""
+    if isinstance(value, str):
+        return (value,)
+    try:
+        return tuple(value)
+    except TypeError:
+        return (value,)
+
+
 def _check_names(value, argument, allowed):
     """Validate a tuple of response names (``"all"`` or a subset)."""
-    if isinstance(value, str):
-        value = allowed if value == "all" else (value,)
-    try:
-        value = tuple(value)
-    except TypeError:
-        value = (value,)
+    value = allowed if isinstance(value, str) and value == "all" else _as_tuple(value)
     bad = [v for v in value if not isinstance(v, str) or v not in allowed]
     if not value or bad or len(set(value)) != len(value):
         raise ValueError(
@@ -269,39 +98,105 @@ def _check_names(value, argument, allowed):
 
 
 def _check_choice(value, argument, allowed):
-    """Validate a tuple that must equal one of ``allowed``."""
-    if isinstance(value, str):
-        value = (value,)
-    try:
-        value = tuple(value)
-    except TypeError:
-        value = (value,)
+    """Validate a value that must be one of ``allowed``.
+
+    Tuple-valued choices (``allowed`` holds tuples) take any sequence, and a
+    single string stands for a 1-tuple.
+    """
+    if isinstance(allowed[0], tuple):
+        value = _as_tuple(value)
     if value not in allowed:
         raise ValueError(f"{argument} must be one of {allowed}, got {value!r}")
     return value
 
 
-def _check_int(value, argument, minimum):
-    if (
-        not isinstance(value, numbers.Integral)
-        or isinstance(value, bool)
-        or value < minimum
-    ):
-        raise ValueError(f"{argument} must be an integer >= {minimum}, got {value!r}")
-    return int(value)
+@dataclass(frozen=True, eq=False)
+class _Settings:
+    """The checked arguments of :func:`make_cantilever` and what follows."""
+
+    n_simulations: int
+    n_observations: int
+    response_names: tuple
+    parameter_names: tuple
+    design_variable_names: tuple
+    simulation_design: str
+    prior: str
+    snr: np.ndarray | None
+    n_outliers: int
+    spring_stiffness: float
+    E_true: float
+    I_true: float
+    length: float
+
+    @property
+    def X_bounds(self):
+        """Ranges of the design variables, shape (d, 2)."""
+        return np.array([_DESIGN_BOUNDS[v] for v in self.design_variable_names])
+
+    @property
+    def theta_bounds(self):
+        """Ranges of the simulated parameters, shape (r, 2)."""
+        return np.array([_PARAMETER_BOUNDS[p] for p in self.parameter_names])
+
+    @property
+    def theta_true(self):
+        """True parameters: E*, and I* when calibrated."""
+        return np.array([self.E_true, self.I_true][: len(self.parameter_names)])
 
 
-def _check_positive(value, argument, allow_inf=False):
-    try:
-        value = float(value)
-    except (TypeError, ValueError):
-        value = math.nan
-    if not value > 0 or (math.isinf(value) and not allow_inf):
-        kind = (
-            "positive number (inf allowed)" if allow_inf else "finite positive number"
+def _check_arguments(
+    n_simulations,
+    n_observations,
+    responses,
+    parameters,
+    design_variables,
+    simulation_design,
+    prior,
+    snr_db,
+    n_outliers,
+    spring_stiffness,
+    E_true,
+    I_true,
+    length,
+):
+    """Check the arguments of :func:`make_cantilever` (same names), in order."""
+    n_simulations = check_count(n_simulations, "n_simulations")
+    n_observations = check_count(n_observations, "n_observations")
+    response_names = _check_names(responses, "responses", RESPONSES)
+    parameter_names = _check_choice(parameters, "parameters", _PARAMETER_SETS)
+    design_variable_names = _check_choice(
+        design_variables, "design_variables", _DESIGN_SETS
+    )
+    simulation_design = _check_choice(simulation_design, "simulation_design", _DESIGNS)
+    prior = _check_choice(prior, "prior", _PRIORS)
+    q = len(response_names)
+    snr = None if snr_db is None else per_response(snr_db, "snr_db", q)
+    n_outliers = check_count(n_outliers, "n_outliers", minimum=0)
+    if n_outliers > n_observations:
+        raise ValueError(
+            f"n_outliers must be between 0 and n_observations={n_observations}, "
+            f"got {n_outliers}"
         )
-        raise ValueError(f"{argument} must be a {kind}, got {value!r}")
-    return value
+    return _Settings(
+        n_simulations,
+        n_observations,
+        response_names,
+        parameter_names,
+        design_variable_names,
+        simulation_design,
+        prior,
+        snr,
+        n_outliers,
+        check_positive(spring_stiffness, "spring_stiffness", allow_inf=True),
+        check_positive(E_true, "E_true"),
+        check_positive(I_true, "I_true"),
+        check_positive(length, "length"),
+    )
+
+
+# --------------------------------------------------------------------------
+# the steps of make_cantilever
+# --------------------------------------------------------------------------
 
 
 def _grid(n, d):
@@ -320,12 +215,8 @@ def _grid(n, d):
     return np.column_stack([m.ravel() for m in mesh]), k
 
 
-def _scale(unit, bounds):
-    bounds = np.asarray(bounds, dtype=float)
-    return bounds[:, 0] + unit * (bounds[:, 1] - bounds[:, 0])
-
-
 def _make_prior(prior, parameter_names):
+    """Frozen scipy prior(s) of the calibration parameters (Tables 4.1, 4.3)."""
     if prior == "uniform":
         return [
             stats.uniform(loc=lo, scale=hi - lo)
@@ -335,6 +226,107 @@ def _make_prior(prior, parameter_names):
         return [stats.norm(loc=_GAUSS_1D[0], scale=_GAUSS_1D[1])]
     return stats.multivariate_normal(
         mean=np.array(_GAUSS_2D_MEAN), cov=np.array(_GAUSS_2D_COV)
+    )
+
+
+def _model_and_reality(settings):
+    """The fixed-support simulator and the spring-supported reality."""
+    simulator = CantileverModel(
+        response_names=settings.response_names,
+        design_variable_names=settings.design_variable_names,
+        parameter_names=settings.parameter_names,
+        length=settings.length,
+        I=settings.I_true,
+    )
+    reality = CantileverReality(
+        response_names=settings.response_names,
+        design_variable_names=settings.design_variable_names,
+        E=settings.E_true,
+        I=settings.I_true,
+        spring_stiffness=settings.spring_stiffness,
+        length=settings.length,
+    )
+    return simulator, reality
+
+
+def _simulation_design(settings, rng):
+    """Design of the simulations: LHS or grid over the variables' ranges.
+
+    Returns ``X_sim``, ``theta_sim`` and the grid's points per axis ``k``
+    (None for the LHS).
+    """
+    d = len(settings.design_variable_names)
+    dimension = d + len(settings.parameter_names)
+    if settings.simulation_design == "lhs":
+        unit = latin_hypercube(settings.n_simulations, dimension, rng)
+        k = None
+    else:
+        unit, k = _grid(settings.n_simulations, dimension)
+    bounds = np.vstack([settings.X_bounds, settings.theta_bounds])
+    design = scale_to_bounds(unit, bounds)
+    return design[:, :d], design[:, d:], k
+
+
+def _observation_sites(settings, rng):
+    """Design variables of the observations: an LHS over their ranges."""
+    d = len(settings.design_variable_names)
+    unit = latin_hypercube(settings.n_observations, d, rng)
+    return scale_to_bounds(unit, settings.X_bounds)
+
+
+def _add_outliers(y_obs, y_true, variance, n_outliers, rng):
+    """Replace ``n_outliers`` random rows of ``y_obs`` by outliers, in place.
+
+    Each outlier is the noise-free ``y_true`` shifted by ``_OUTLIER_SHIFT``
+    standard deviations of the observed signal (section 4.7.6), with a random
+    sign per entry. The rows are drawn even when ``n_outliers`` is 0, so the
+    random stream does not depend on it. Returns the sorted row indices.
+    """
+    n, q = y_true.shape
+    indices = np.sort(rng.choice(n, size=n_outliers, replace=False)).astype(np.intp)
+    if n_outliers:
+        scale = np.sqrt(y_true.var(axis=0) + variance)
+        # degenerate constant signal (e.g. a single observation)
+        scale = np.where(scale > 0, scale, np.abs(y_true).max(axis=0) + 1.0)
+        signs = rng.choice([-1.0, 1.0], size=(n_outliers, q))
+        y_obs[indices] = y_true[indices] + _OUTLIER_SHIFT * signs * scale
+    return indices
+
+
+def _observe(y_true, settings, rng):
+    """Observed responses: noise at the SNR, then outliers.
+
+    Returns ``y_obs``, the noise variance per response and the outliers' rows.
+    """
+    variance = noise_variance(y_true, snr_db=settings.snr)
+    y_obs = add_noise(y_true, variance, rng)
+    outliers = _add_outliers(y_obs, y_true, variance, settings.n_outliers, rng)
+    return y_obs, variance, outliers
+
+
+def _description(settings, n_simulations, k):
+    """``DESCR`` of the dataset: the problem, its constants and its sizes."""
+    s = settings
+    noise = (
+        "noise-free"
+        if s.snr is None
+        else "SNR " + ", ".join(f"{v:g}" for v in s.snr) + " dB"
+    )
+    responses_line = ", ".join(f"{n} [{RESPONSE_UNITS[n]}]" for n in s.response_names)
+    dimension = len(s.design_variable_names) + len(s.parameter_names)
+    return (
+        "Cantilever beam calibration problem (thesis sections 4.7 and 6.3).\n"
+        "Model: Euler-Bernoulli cantilever with a fixed support; reality: the\n"
+        f"same beam on a rotational spring K* = {s.spring_stiffness:g} N*mm/rad.\n"
+        f"L = {s.length:g} mm, E* = {s.E_true:g} MPa, I* = {s.I_true:g} mm^4.\n"
+        f"Design variables: {', '.join(s.design_variable_names)}; "
+        f"parameters: {', '.join(s.parameter_names)} ({s.prior} prior).\n"
+        + textwrap.fill(f"Responses: {responses_line}.", width=72)
+        + "\n"
+        f"{n_simulations} simulations ("
+        + (f"{k}^{dimension} grid" if k is not None else "LHS")
+        + f"), {s.n_observations} observations ({noise}, "
+        f"{s.n_outliers} outliers).\n"
     )
 
 
@@ -573,134 +565,49 @@ def make_cantilever(
     >>> data.theta_sim.shape, data.theta_true.tolist()
     ((170, 2), [70000.0, 675000000.0])
     """
-    n_simulations = _check_int(n_simulations, "n_simulations", 1)
-    n_observations = _check_int(n_observations, "n_observations", 1)
-    response_names = _check_names(responses, "responses", RESPONSES)
-    parameter_names = _check_choice(parameters, "parameters", _PARAMETER_SETS)
-    design_variable_names = _check_choice(
-        design_variables, "design_variables", _DESIGN_SETS
+    settings = _check_arguments(
+        n_simulations,
+        n_observations,
+        responses,
+        parameters,
+        design_variables,
+        simulation_design,
+        prior,
+        snr_db,
+        n_outliers,
+        spring_stiffness,
+        E_true,
+        I_true,
+        length,
     )
-    if simulation_design not in _DESIGNS:
-        raise ValueError(
-            f"simulation_design must be one of {_DESIGNS}, got {simulation_design!r}"
-        )
-    if prior not in _PRIORS:
-        raise ValueError(f"prior must be one of {_PRIORS}, got {prior!r}")
-    q = len(response_names)
-    snr = None if snr_db is None else per_response(snr_db, "snr_db", q)
-    n_outliers = _check_int(n_outliers, "n_outliers", 0)
-    if n_outliers > n_observations:
-        raise ValueError(
-            f"n_outliers must be between 0 and n_observations={n_observations}, "
-            f"got {n_outliers}"
-        )
-    spring_stiffness = _check_positive(
-        spring_stiffness, "spring_stiffness", allow_inf=True
-    )
-    E_true = _check_positive(E_true, "E_true")
-    I_true = _check_positive(I_true, "I_true")
-    length = _check_positive(length, "length")
     rng = as_generator(random_state)
-
-    d, r = len(design_variable_names), len(parameter_names)
-    X_bounds = np.array([_DESIGN_BOUNDS[v] for v in design_variable_names])
-    theta_bounds = np.array([_PARAMETER_BOUNDS[p] for p in parameter_names])
-    bounds = np.vstack([X_bounds, theta_bounds])
-
-    simulator = CantileverModel(
-        response_names=response_names,
-        design_variable_names=design_variable_names,
-        parameter_names=parameter_names,
-        length=length,
-        I=I_true,
-    )
-    reality = CantileverReality(
-        response_names=response_names,
-        design_variable_names=design_variable_names,
-        E=E_true,
-        I=I_true,
-        spring_stiffness=spring_stiffness,
-        length=length,
-    )
-
-    # simulations
-    if simulation_design == "lhs":
-        unit = latin_hypercube(n_simulations, d + r, rng)
-        k = None
-    else:
-        unit, k = _grid(n_simulations, d + r)
-    design = _scale(unit, bounds)
-    X_sim, theta_sim = design[:, :d], design[:, d:]
+    simulator, reality = _model_and_reality(settings)
+    X_sim, theta_sim, k = _simulation_design(settings, rng)
     y_sim = simulator(X_sim, theta_sim)
-
-    # observations
-    X_obs = _scale(latin_hypercube(n_observations, d, rng), X_bounds)
+    X_obs = _observation_sites(settings, rng)
     y_obs_true = reality(X_obs)
-    signal_variance = y_obs_true.var(axis=0)
-    if snr is None:
-        noise_variance = np.zeros(q)
-    else:
-        noise_variance = signal_variance / 10.0 ** (snr / 10.0)
-    y_obs = y_obs_true + rng.standard_normal((n_observations, q)) * np.sqrt(
-        noise_variance
-    )
-    outlier_indices = np.sort(
-        rng.choice(n_observations, size=n_outliers, replace=False)
-    ).astype(np.intp)
-    if n_outliers:
-        scale = np.sqrt(signal_variance + noise_variance)
-        # degenerate constant signal (e.g. a single observation)
-        scale = np.where(scale > 0, scale, np.abs(y_obs_true).max(axis=0) + 1.0)
-        signs = rng.choice([-1.0, 1.0], size=(n_outliers, q))
-        y_obs[outlier_indices] = (
-            y_obs_true[outlier_indices] + _OUTLIER_SHIFT * signs * scale
-        )
-
-    theta_true = np.array([E_true, I_true][:r])
-    response_units = tuple(RESPONSE_UNITS[n] for n in response_names)
-    noise = (
-        "noise-free"
-        if snr is None
-        else "SNR " + ", ".join(f"{s:g}" for s in snr) + " dB"
-    )
-    responses_line = ", ".join(
-        f"{n} [{u}]" for n, u in zip(response_names, response_units, strict=True)
-    )
-    descr = (
-        "Cantilever beam calibration problem (thesis sections 4.7 and 6.3).\n"
-        "Model: Euler-Bernoulli cantilever with a fixed support; reality: the\n"
-        f"same beam on a rotational spring K* = {spring_stiffness:g} N*mm/rad.\n"
-        f"L = {length:g} mm, E* = {E_true:g} MPa, I* = {I_true:g} mm^4.\n"
-        f"Design variables: {', '.join(design_variable_names)}; "
-        f"parameters: {', '.join(parameter_names)} ({prior} prior).\n"
-        + textwrap.fill(f"Responses: {responses_line}.", width=72)
-        + "\n"
-        f"{y_sim.shape[0]} simulations ("
-        + (f"{k}^{d + r} grid" if k is not None else "LHS")
-        + f"), {n_observations} observations ({noise}, "
-        f"{n_outliers} outliers).\n"
-    )
-    return Bunch(
-        X_sim=X_sim,
-        theta_sim=theta_sim,
-        y_sim=y_sim,
-        X_obs=X_obs,
-        y_obs=y_obs,
-        y_obs_true=y_obs_true,
-        theta_true=theta_true,
-        prior=_make_prior(prior, parameter_names),
+    y_obs, variance, outlier_indices = _observe(y_obs_true, settings, rng)
+    return calibration_bunch(
+        X_sim,
+        theta_sim,
+        y_sim,
+        X_obs,
+        y_obs,
+        y_obs_true,
+        theta_true=settings.theta_true,
+        prior=_make_prior(settings.prior, settings.parameter_names),
         simulator=simulator,
         reality=reality,
         outlier_indices=outlier_indices,
-        noise_variance=noise_variance,
-        snr_db=snr,
-        response_names=response_names,
-        parameter_names=parameter_names,
-        design_variable_names=design_variable_names,
-        response_units=response_units,
-        X_bounds=X_bounds,
-        theta_bounds=theta_bounds,
-        simulation_design=simulation_design,
+        noise_variance=variance,
+        snr_db=settings.snr,
+        response_names=settings.response_names,
+        parameter_names=settings.parameter_names,
+        design_variable_names=settings.design_variable_names,
+        response_units=tuple(RESPONSE_UNITS[n] for n in settings.response_names),
+        X_bounds=settings.X_bounds,
+        theta_bounds=settings.theta_bounds,
+        simulation_design=settings.simulation_design,
         grid_points_per_axis=k,
-        DESCR=descr,
+        DESCR=_description(settings, y_sim.shape[0], k),
     )
