@@ -255,45 +255,9 @@ def _figures(out, cal, data, designer, design_names):
     return written
 
 
-def run_demo(out, *, n_simulations=70, n_mc=None, seed=0, n_jobs=-1, quick=False):
-    """Run the cantilever study end to end; print a report, write figures.
-
-    Parameters
-    ----------
-    out : str or Path
-        Folder for the figures (created if needed).
-    n_simulations : int, default=70
-        Runs of the beam model for the calibration.
-    n_mc : int, default=None
-        Monte Carlo replicates of the sensor ranking (None: 30, 4 if quick).
-    seed : int, default=0
-    n_jobs : int, default=-1
-        joblib workers of the calibrator and the designer.
-    quick : bool, default=False
-        Small settings for a smoke run of a few seconds.
-
-    Returns
-    -------
-    report : dict
-        ``theta_mean``, ``interval`` (2,) and ``theta_true`` of E (MPa);
-        ``rhat``, ``ess``, ``acceptance`` (MCMC diagnostics); ``r2``
-        (emulator, per response); ``coverage`` (share of the true process
-        inside the 95 % bands of the calibrated prediction, per response);
-        ``ranking`` (dict name -> rank of each response alone) and
-        ``best_subsets`` (best subset of each size, as names); ``figures``
-        (paths) and ``seconds``.
-    """
-    from skmba import ModularBayesCalibrator, PreposteriorDesigner
-    from skmba._discrepancy import check_discrepancy_ranges
+def _simulate(settings, n_simulations, seed, steps):
+    """Step 1: the cantilever problem and its noisy field data."""
     from skmba.datasets import make_cantilever
-
-    settings = SETTINGS["quick" if quick else "full"]
-    n_mc = settings["n_mc"] if n_mc is None else n_mc
-    steps = _Steps(5)
-    _say(
-        "skmba demo: the cantilever beam of thesis sections 4.7.1 and 6.3 "
-        "(model: fixed support; reality: rotational spring K* = 1.5e12 N mm/rad)"
-    )
 
     data = make_cantilever(
         n_simulations=n_simulations,
@@ -306,6 +270,12 @@ def run_demo(out, *, n_simulations=70, n_mc=None, seed=0, n_jobs=-1, quick=False
         f"and the energy at SNR {SNR_DB:g} dB, true E = "
         f"{data.theta_true[0] / 1e3:g} GPa"
     )
+    return data
+
+
+def _calibrate(data, settings, n_simulations, seed, n_jobs, steps):
+    """Step 2: calibrate E; returns the calibrator and its fit's warnings."""
+    from skmba import ModularBayesCalibrator
 
     cal = ModularBayesCalibrator(
         data.simulator,
@@ -327,12 +297,23 @@ def run_demo(out, *, n_simulations=70, n_mc=None, seed=0, n_jobs=-1, quick=False
         f"discrepancy, {settings['n_chains']} chains of "
         f"{settings['burn_in']} + {settings['n_samples']} draws"
     )
+    return cal, fit_warnings
 
+
+def _predict(cal, data, seed, steps):
+    """Step 3: emulator R^2 and the coverage of the true beam, per response."""
     r2 = _emulator_accuracy(cal, data, seed)
     force = np.linspace(*data.X_bounds[0], 60)[:, None]
     mean, std = cal.predict_reality(force, return_std=True)
     coverage = (np.abs(data.reality(force) - mean) <= 1.96 * std).mean(axis=0)
     steps("Predictions of the true beam (60 forces) and of fresh model runs")
+    return r2, coverage
+
+
+def _design_sensors(settings, n_mc, seed, n_jobs, steps):
+    """Step 4: rank the sensors; returns the designer and the sensors' names."""
+    from skmba import ModularBayesCalibrator, PreposteriorDesigner
+    from skmba.datasets import make_cantilever
 
     design_data = make_cantilever(
         n_simulations=settings["design_simulations"],
@@ -364,11 +345,16 @@ def run_demo(out, *, n_simulations=70, n_mc=None, seed=0, n_jobs=-1, quick=False
         f"subsets of {q} responses ({n_mc} Monte Carlo replicates, "
         f"{settings['design_simulations']} simulations)"
     )
+    return designer, design_names
 
-    figures = _figures(out, cal, data, designer, design_names)
-    steps(f"Figures written to {out}" if figures else "No figures")
 
-    # ------------------------------------------------------------ report
+def _report_posterior(cal, data):
+    """Report E against the truth and explain the width of its posterior.
+
+    Returns the 95 % credible interval of E.
+    """
+    from skmba._discrepancy import check_discrepancy_ranges
+
     samples = cal.theta_samples_[:, 0]
     interval = np.quantile(samples, [0.025, 0.975])
     E_true, E_mean = data.theta_true[0], cal.theta_mean_[0]
@@ -425,10 +411,15 @@ def run_demo(out, *, n_simulations=70, n_mc=None, seed=0, n_jobs=-1, quick=False
             f"effective modulus, where the confounding alone would put it, and "
             f"{z:.1f} posterior sd from E*."
         )
+    return interval
+
+
+def _report_diagnostics(cal, data, r2, coverage, fit_warnings):
+    """Report the MCMC diagnostics, the emulator, the noise and the bands."""
     acceptance = cal.acceptance_rate_
     _say(
         f"MCMC: split R-hat {cal.rhat_[0]:.3f} (want < 1.01), bulk ESS "
-        f"{cal.ess_[0]:.0f} of {samples.size} draws, acceptance "
+        f"{cal.ess_[0]:.0f} of {cal.theta_samples_.shape[0]} draws, acceptance "
         f"{acceptance.min():.2f}-{acceptance.max():.2f}"
     )
     for k, name in enumerate(data.response_names):
@@ -441,6 +432,10 @@ def run_demo(out, *, n_simulations=70, n_mc=None, seed=0, n_jobs=-1, quick=False
         )
     for message in fit_warnings:
         _say(f"warning during the calibration: {message}")
+
+
+def _report_sensors(designer, design_names):
+    """Report the sensors' ranking; returns the best subset of each size."""
     order = np.argsort(designer.ranking_, kind="stable")
     _say(
         "Sensors alone, best first (informative discrepancy prior of section "
@@ -462,17 +457,65 @@ def run_demo(out, *, n_simulations=70, n_mc=None, seed=0, n_jobs=-1, quick=False
             f"{' + '.join(n.split()[0] for n in best_subsets[size])} "
             f"(posterior/prior variance {designer.scores_[best]:.3f})"
         )
+    return best_subsets
+
+
+def run_demo(out, *, n_simulations=70, n_mc=None, seed=0, n_jobs=-1, quick=False):
+    """Run the cantilever study end to end; print a report, write figures.
+
+    Parameters
+    ----------
+    out : str or Path
+        Folder for the figures (created if needed).
+    n_simulations : int, default=70
+        Runs of the beam model for the calibration.
+    n_mc : int, default=None
+        Monte Carlo replicates of the sensor ranking (None: 30, 4 if quick).
+    seed : int, default=0
+    n_jobs : int, default=-1
+        joblib workers of the calibrator and the designer.
+    quick : bool, default=False
+        Small settings for a smoke run of a few seconds.
+
+    Returns
+    -------
+    report : dict
+        ``theta_mean``, ``interval`` (2,) and ``theta_true`` of E (MPa);
+        ``rhat``, ``ess``, ``acceptance`` (MCMC diagnostics); ``r2``
+        (emulator, per response); ``coverage`` (share of the true process
+        inside the 95 % bands of the calibrated prediction, per response);
+        ``ranking`` (dict name -> rank of each response alone) and
+        ``best_subsets`` (best subset of each size, as names); ``figures``
+        (paths) and ``seconds``.
+    """
+    settings = SETTINGS["quick" if quick else "full"]
+    n_mc = settings["n_mc"] if n_mc is None else n_mc
+    steps = _Steps(5)
+    _say(
+        "skmba demo: the cantilever beam of thesis sections 4.7.1 and 6.3 "
+        "(model: fixed support; reality: rotational spring K* = 1.5e12 N mm/rad)"
+    )
+    data = _simulate(settings, n_simulations, seed, steps)
+    cal, fit_warnings = _calibrate(data, settings, n_simulations, seed, n_jobs, steps)
+    r2, coverage = _predict(cal, data, seed, steps)
+    designer, design_names = _design_sensors(settings, n_mc, seed, n_jobs, steps)
+    figures = _figures(out, cal, data, designer, design_names)
+    steps(f"Figures written to {out}" if figures else "No figures")
+
+    interval = _report_posterior(cal, data)
+    _report_diagnostics(cal, data, r2, coverage, fit_warnings)
+    best_subsets = _report_sensors(designer, design_names)
     for path in figures:
         _say(f"figure: {path}")
     seconds = steps.elapsed()
     _say(f"Done in {seconds:.0f} s.")
     return {
-        "theta_mean": E_mean,
+        "theta_mean": cal.theta_mean_[0],
         "interval": interval,
-        "theta_true": E_true,
+        "theta_true": data.theta_true[0],
         "rhat": cal.rhat_,
         "ess": cal.ess_,
-        "acceptance": acceptance,
+        "acceptance": cal.acceptance_rate_,
         "r2": r2,
         "coverage": coverage,
         "ranking": dict(zip(design_names, designer.ranking_.tolist(), strict=True)),
