@@ -3,40 +3,239 @@
 One home for the checks that several modules need, so that the same bad
 value gets the same message everywhere.
 
+Constructor parameters are checked from a table, in the form of
+scikit-learn's ``_parameter_constraints``: an estimator declares the class
+attribute ``_parameter_constraints``, a dict mapping every parameter of
+``get_params(deep=False)`` to a list of constraints (or to
+``"no_validation"`` when it is checked later, with the data), and calls
+:func:`validate_parameter_table` at the start of ``fit``. A value is valid
+when one constraint of its list accepts it. The constraints are
+:class:`Options`, :class:`Count`, :class:`Real`, :class:`Boolean`,
+:class:`InstanceOf`, :class:`Callable` and :class:`NJobs`; see
+``MultiResponseGP._parameter_constraints`` for a table.
+
+scikit-learn's ``sklearn.utils._param_validation`` is private and words its
+messages its own way ("The 'alpha' parameter of ... must be a float in the
+range [0.0, inf). Got -1.0 instead."), not in the wording (and hints) that
+skmba's users and tests rely on; hence this small local module. As there,
+:class:`InvalidParameterError` is both a ``ValueError`` and a ``TypeError``:
+a value of the wrong type and one out of range are caught alike.
+
 Examples
 --------
->>> from skmba._validation import check_count
->>> check_count(3, "n_chains")
-3
+>>> from skmba import MultiResponseGP
+>>> from skmba._validation import Count, check_count, validate_parameter_table
 >>> check_count(0, "burn_in", minimum=0)
 0
+>>> Count(minimum=2, allow_none=True).message("n_design", 1)
+'n_design must be an integer >= 2 or None, got 1.'
+>>> try:
+...     validate_parameter_table(MultiResponseGP(noise="yes"))
+... except ValueError as exc:
+...     print(exc)
+noise must be True or False, got 'yes'.
 """
 
 from numbers import Integral
+from numbers import Real as _RealNumber
+
+import numpy as np
+
+NO_VALIDATION = "no_validation"
+
+
+class InvalidParameterError(ValueError, TypeError):
+    """A parameter of the wrong type or out of range (a ValueError and a TypeError)."""
+
+
+def _is_int(value):
+    return isinstance(value, Integral) and not isinstance(value, bool)
+
+
+def _join(terms):
+    """``"a, b or c"`` from ``["a", "b", "c"]``."""
+    return terms[0] if len(terms) == 1 else f"{', '.join(terms[:-1])} or {terms[-1]}"
+
+
+class _Constraint:
+    """One accepted kind of value: ``phrase`` (for messages) and ``_accepts``.
+
+    ``hint`` is added in parentheses after the phrase; ``allow_none`` also
+    accepts None (and the message says "or None").
+    """
+
+    phrase = ""
+
+    def __init__(self, *, hint=None, allow_none=False):
+        self.hint = hint
+        self.allow_none = allow_none
+
+    def _accepts(self, value):
+        raise NotImplementedError
+
+    def accepts(self, value):
+        """Whether ``value`` satisfies this constraint."""
+        return self.allow_none if value is None else bool(self._accepts(value))
+
+    def terms(self):
+        """The alternatives this constraint accepts, for a message."""
+        hint = f" ({self.hint})" if self.hint else ""
+        return [self.phrase + hint] + (["None"] if self.allow_none else [])
+
+    def got(self, value):
+        """How a refused value is shown."""
+        return repr(value)
+
+    def message(self, name, value):
+        """The error message for a refused ``value`` of parameter ``name``."""
+        return f"{name} must be {_join(self.terms())}, got {self.got(value)}."
+
+
+class Options(_Constraint):
+    """One of the strings ``options``.
+
+    >>> Options(("exhaustive", "greedy")).message("search", "random")
+    "search='random' is not supported; use one of 'exhaustive', 'greedy'."
+    """
+
+    def __init__(self, options, *, hint=None, allow_none=False):
+        super().__init__(hint=hint, allow_none=allow_none)
+        self.options = tuple(options)
+        names = ", ".join(repr(option) for option in self.options)
+        self.phrase = names if len(self.options) == 1 else f"one of {names}"
+
+    def _accepts(self, value):
+        return isinstance(value, str) and value in self.options
+
+    def message(self, name, value):
+        return f"{name}={value!r} is not supported; use {_join(self.terms())}."
+
+
+class Count(_Constraint):
+    """An integer (not a bool) ``>= minimum``."""
+
+    def __init__(self, *, minimum=1, hint=None, allow_none=False):
+        super().__init__(hint=hint, allow_none=allow_none)
+        self.minimum = minimum
+        self.phrase = {1: "a positive integer", 0: "a non-negative integer"}.get(
+            minimum, f"an integer >= {minimum}"
+        )
+
+    def _accepts(self, value):
+        return _is_int(value) and value >= self.minimum
+
+
+class Real(_Constraint):
+    """A real number (not a bool), finite if ``finite``, ``>= minimum`` if given.
+
+    >>> Real(minimum=0, hint="the nugget, e.g. 1e-10").message("alpha", -1.0)
+    'alpha must be a finite float >= 0 (the nugget, e.g. 1e-10), got -1.0.'
+    """
+
+    def __init__(self, *, minimum=None, finite=True, hint=None, allow_none=False):
+        super().__init__(hint=hint, allow_none=allow_none)
+        self.minimum = minimum
+        self.finite = finite
+        bound = "" if minimum is None else f" >= {minimum:g}"
+        self.phrase = ("a finite float" if finite else "a float") + bound
+
+    def _accepts(self, value):
+        return (
+            isinstance(value, _RealNumber)
+            and not isinstance(value, bool)
+            and (not self.finite or np.isfinite(value))
+            and (self.minimum is None or value >= self.minimum)
+        )
+
+
+class Boolean(_Constraint):
+    """``True`` or ``False`` (Python or numpy bool)."""
+
+    phrase = "True or False"
+
+    def _accepts(self, value):
+        return isinstance(value, bool | np.bool_)
+
+
+class InstanceOf(_Constraint):
+    """An instance of ``cls``, described as ``what`` (default "a <cls name>").
+
+    Refused values are shown by their type name.
+    """
+
+    def __init__(self, cls, *, what=None, hint=None, allow_none=False):
+        super().__init__(hint=hint, allow_none=allow_none)
+        self.cls = cls
+        self.phrase = what or f"a {cls.__name__}"
+
+    def _accepts(self, value):
+        return isinstance(value, self.cls)
+
+    def got(self, value):
+        return type(value).__name__
+
+
+class Callable(InstanceOf):
+    """A callable, described as ``what`` (default "a callable").
+
+    >>> Callable(what="a callable f(X, theta) -> Y").message("simulator", 3)
+    'simulator must be a callable f(X, theta) -> Y, got int.'
+    """
+
+    def __init__(self, *, what="a callable", hint=None, allow_none=False):
+        super().__init__(object, what=what, hint=hint, allow_none=allow_none)
+
+    def _accepts(self, value):
+        return callable(value)
+
+
+class NJobs(_Constraint):
+    """joblib's ``n_jobs``: None or a non-zero integer (-1: all cores)."""
+
+    phrase = (
+        "None, a positive integer (number of parallel tasks) or a negative one "
+        "(-1: all cores)"
+    )
+
+    def accepts(self, value):
+        return value is None or (_is_int(value) and value != 0)
+
+
+def validate_parameter_table(estimator):
+    """Check ``estimator``'s parameters against its ``_parameter_constraints``.
+
+    Every parameter of ``get_params(deep=False)`` needs an entry (a list of
+    constraints, or ``"no_validation"``), else a ``RuntimeError`` (a bug of
+    the estimator). In the order of the table, the first parameter that no
+    constraint of its list accepts raises an :class:`InvalidParameterError`
+    with that constraint's message, or with several constraints "name=value
+    is not supported; use a, b or c."
+    """
+    table = type(estimator)._parameter_constraints
+    params = estimator.get_params(deep=False)
+    missing = sorted(set(params) - set(table))
+    if missing:
+        raise RuntimeError(
+            f"{type(estimator).__name__}._parameter_constraints has no entry for "
+            f"{missing}; add one (or 'no_validation')."
+        )
+    for name, constraints in table.items():
+        value = params[name]
+        if constraints == NO_VALIDATION or any(c.accepts(value) for c in constraints):
+            continue
+        if len(constraints) == 1:
+            raise InvalidParameterError(constraints[0].message(name, value))
+        terms = _join([term for c in constraints for term in c.terms()])
+        raise InvalidParameterError(f"{name}={value!r} is not supported; use {terms}.")
 
 
 def check_count(value, name, *, minimum=1):
-    """``value`` as an int, or a ValueError naming ``name``.
+    """``value`` (an integer >= ``minimum``, not a bool) as an int.
 
-    Parameters
-    ----------
-    value : object
-        The count to check; ``bool`` is refused (``True`` is not a count).
-    name : str
-        The argument's name, for the message.
-    minimum : int, default=1
-        Smallest valid value.
-
-    Returns
-    -------
-    int
-
-    Raises
-    ------
-    ValueError
-        ``value`` is not an integer or is below ``minimum``.
+    Raises an :class:`InvalidParameterError` (a ``ValueError``) naming
+    ``name`` otherwise.
     """
-    if isinstance(value, bool) or not isinstance(value, Integral) or value < minimum:
-        what = "a positive integer" if minimum == 1 else f"an integer >= {minimum}"
-        raise ValueError(f"{name} must be {what}, got {value!r}.")
+    count = Count(minimum=minimum)
+    if not count.accepts(value):
+        raise InvalidParameterError(count.message(name, value))
     return int(value)
