@@ -1,59 +1,58 @@
-"""Multi-response Gaussian process regression (thesis chapter 3)."""
+"""Multi-response Gaussian process regression (thesis chapter 3).
+
+:class:`MultiResponseGP` is the estimator; the likelihood and predictive
+moments are in :mod:`skmba._likelihood`, the hyperparameter search and the
+nugget escalation in :mod:`skmba._gp_search`, the noisy fit in
+:mod:`skmba._gp_noisy` and the checks of the training data in
+:mod:`skmba._gp_checks`.
+
+Examples
+--------
+>>> import numpy as np
+>>> from skmba._gp import MultiResponseGP, default_kernel
+>>> X = np.linspace(0, 1, 10).reshape(-1, 1)
+>>> gp = MultiResponseGP(default_kernel(X)).fit(X, np.sin(4 * X[:, 0]))
+>>> gp.predict([[0.5]]).shape
+(1,)
+"""
 
 import warnings
-from numbers import Integral, Real
-from typing import NamedTuple
+from typing import ClassVar
 
 import numpy as np
-from scipy import optimize
 from sklearn.base import BaseEstimator, MultiOutputMixin, RegressorMixin, clone
-from sklearn.exceptions import ConvergenceWarning
 from sklearn.gaussian_process.kernels import Kernel
 from sklearn.utils import check_random_state
 from sklearn.utils.validation import check_is_fitted, validate_data
 from threadpoolctl import threadpool_limits
 
-from skmba._likelihood import (
-    R_REMEDY,
-    R_WHAT,
-    NoiseFreeLikelihood,
-    NoisyLikelihood,
-    maximise_noise_and_sigma2,
+from skmba._gp_checks import (
+    check_covariance_size,
+    check_magnitudes,
+    check_rows,
+    check_sample_size,
 )
-from skmba._linalg import (
-    FactorizationError,
-    check_memory,
-    smallest_pivot,
-    symmetric_eigh,
+from skmba._gp_noisy import fit_noisy
+from skmba._gp_search import (
+    LikelihoodProblem,
+    correlation,
+    fit_noise_free,
+    pairwise_differences,
 )
-from skmba._regression import check_regression, n_regression_terms, regression_basis
+from skmba._likelihood import NoiseFreeLikelihood, NoisyLikelihood
+from skmba._linalg import check_memory
+from skmba._regression import REGRESSIONS, n_regression_terms, regression_basis
+from skmba._validation import (
+    Boolean,
+    Callable,
+    Count,
+    InstanceOf,
+    Options,
+    Real,
+    validate_parameter_table,
+)
 from skmba.kernels import Gauss, _DACECorrelation, check_correlation
 
-# Noise variances, relative to each response's variance, and tau (noise to
-# signal ratio of the proportional-noise start) stay within these log bounds.
-_LOG_NOISE_BOUNDS = (np.log(1e-8), np.log(10.0))
-# Inner maximisation over (Sigma2, Lambda) of the noisy fit: at most this
-# many Levenberg-Marquardt (Fisher scoring) iterations, stopping below this
-# relative gain.
-_MAX_SCORING_STEPS = 200
-_SCORING_TOL = 1e-12
-# Nugget escalation for numerically singular correlation matrices: the nugget
-# is multiplied by _NUGGET_GROWTH (starting from _FIRST_NUGGET when alpha=0),
-# never beyond _MAX_ALPHA (in units of the process variance, i.e. of the
-# standardised responses).
-_NUGGET_GROWTH = 10.0
-_FIRST_NUGGET = 1e-12
-_MAX_ALPHA = 1e-6
-# A Cholesky factor whose smallest pivot is within this factor of
-# max(nugget, N eps) is held positive definite by the nugget (or rounding)
-# alone.
-_PIVOT_MARGIN = 100.0
-# An L-BFGS-B line search that fails with a projected gradient below this
-# fraction of (1 + |log-likelihood|) stopped at the rounding floor of the
-# likelihood (nearly singular R), not away from the optimum.
-_FLAT_GRADIENT = 1e-4
-# Inputs and responses beyond this magnitude overflow float64 when squared.
-_MAX_MAGNITUDE = 1e150
 # Mean and standard deviation are predicted in batches of points whose
 # cross-correlations with the training points take at most this many bytes.
 _PREDICT_BATCH_BYTES = 2**28
@@ -81,107 +80,6 @@ def default_kernel(X):
     )
 
 
-class _Search(NamedTuple):
-    """Outcome of :meth:`MultiResponseGP._run_optimizer`."""
-
-    x: np.ndarray | None
-    failures: list
-    notes: list
-    flat: bool | None
-
-
-def _next_nugget(nugget):
-    """The next nugget of the escalation, or None beyond ``_MAX_ALPHA``."""
-    if nugget >= _MAX_ALPHA * (1.0 - 1e-9):
-        return None
-    return min(max(nugget * _NUGGET_GROWTH, _FIRST_NUGGET), _MAX_ALPHA)
-
-
-def _projected_gradient(res, bounds):
-    """Gradient of an L-BFGS-B result with the components blocked by a bound
-    removed (those at a bound that point out of the box)."""
-    grad = np.asarray(res.jac, dtype=float)
-    x = np.asarray(res.x, dtype=float)
-    lower = x <= bounds[:, 0] + 1e-10 * (1.0 + np.abs(bounds[:, 0]))
-    upper = x >= bounds[:, 1] - 1e-10 * (1.0 + np.abs(bounds[:, 1]))
-    blocked = (lower & (grad > 0)) | (upper & (grad < 0))
-    return np.where(blocked, 0.0, grad)
-
-
-def _check_magnitudes(X, Y):
-    """Refuse values whose squares overflow or underflow float64."""
-    for name, A, remedy in (
-        (
-            "X",
-            X,
-            "Rescale the inputs, e.g. with sklearn.preprocessing.StandardScaler "
-            "in a Pipeline.",
-        ),
-        (
-            "y",
-            Y,
-            "Express the responses in other units (divide y by a constant); "
-            "sigma2_ is in squared units of y.",
-        ),
-    ):
-        peak = float(np.max(np.abs(A))) if A.size else 0.0
-        if peak > _MAX_MAGNITUDE:
-            raise ValueError(
-                f"{name} has values up to {peak:.3g} in magnitude, beyond "
-                f"{_MAX_MAGNITUDE:.0e}: their squares overflow float64. {remedy}"
-            )
-    for name, A, effect, remedy in (
-        (
-            "X column(s)",
-            X,
-            "the kernel roughness for them overflows float64",
-            "Rescale the inputs, e.g. with sklearn.preprocessing.StandardScaler "
-            "in a Pipeline, or drop the columns.",
-        ),
-        (
-            "Response(s)",
-            Y,
-            "their variances underflow float64",
-            "Express the responses in other units (multiply y by a constant).",
-        ),
-    ):
-        span = np.ptp(A, axis=0)
-        tiny = (span > 0) & (span < 1.0 / _MAX_MAGNITUDE)
-        if np.any(tiny):
-            raise ValueError(
-                f"{name} {np.flatnonzero(tiny).tolist()} vary by less than "
-                f"{1.0 / _MAX_MAGNITUDE:.0e} (range {span[tiny].min():.3g}): "
-                f"{effect}. {remedy}"
-            )
-
-
-def _check_regression_rank(X, H, regression):
-    """ValueError naming the cause when the regression terms are not identifiable."""
-    p = H.shape[1]
-    scaled = H / np.maximum(np.abs(H).max(axis=0), np.finfo(float).tiny)
-    singular = np.linalg.svd(scaled, compute_uv=False)
-    rank = int(np.sum(singular > 1e-10 * singular[0]))
-    if rank == p:
-        return
-    constant = np.flatnonzero(np.ptp(X, axis=0) == 0)
-    if regression != "constant" and constant.size:
-        cause = (
-            f"X column(s) {constant.tolist()} are constant, so their "
-            f"{regression} terms duplicate the intercept"
-        )
-    else:
-        n_distinct = len(np.unique(X, axis=0))
-        cause = (
-            f"its {p} terms have rank {rank} on these inputs ({n_distinct} "
-            "distinct rows of X; collinear columns also cause this)"
-        )
-    raise ValueError(
-        f"regression={regression!r} cannot be estimated: {cause}. Use a "
-        "lower-order regression ('constant' needs only distinct inputs), drop "
-        "constant or collinear columns of X, or add distinct input points."
-    )
-
-
 class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
     """Multi-response Gaussian process with covariance ``Sigma2 ⊗ R``.
 
@@ -192,15 +90,14 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
 
         vec(Y) ~ N((I_q ⊗ H) vec(beta), Sigma2 ⊗ (R + alpha I) [+ Lambda ⊗ I])
 
-    Given the roughness ``omega``, ``beta`` is the generalised least-squares
-    estimate. Without noise, ``Sigma2 = E' R^-1 E / N`` (the
-    maximum-likelihood estimate, Eq. 4.6, rather than the ``1/(N - p)`` of
-    Eq. 3.18) is concentrated out, so each likelihood evaluation costs one
-    ``N x N`` Cholesky whatever ``q``. With ``noise=True``, ``Sigma2`` and
-    ``Lambda`` are optimised jointly with ``omega`` through a Kronecker
-    eigendecomposition costing ``O(N^3 + q^3)``. The log-likelihood is
-    maximised with analytic gradients from the kernel's initial values and
-    ``n_restarts_optimizer`` random starts.
+    ``beta`` is the generalised least-squares estimate; without noise
+    ``Sigma2`` is concentrated out (``E' R^-1 E / N``, Eq. 4.6), so one
+    ``N x N`` Cholesky serves any ``q``; with noise ``Sigma2`` and ``Lambda``
+    are estimated jointly through a Kronecker eigendecomposition
+    (``O(N^3 + q^3)``). The kernel hyperparameters maximise the likelihood,
+    with analytic gradients and restarts.
+
+    Read more in the :ref:`User Guide <user-guide-gp>`.
 
     Parameters
     ----------
@@ -221,8 +118,8 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
         correlation (i.e. as a fraction of the process variance). When the
         correlation matrix is numerically singular (many close points, very
         smooth kernels) it is raised automatically, at most to 1e-6, with a
-        warning (see Notes); the value used is ``alpha_``. A value above 1e-6
-        is used as given.
+        warning (:ref:`gp-nugget-escalation`); the value used is ``nugget_``.
+        A value above 1e-6 is used as given.
     optimizer : "fmin_l_bfgs_b", callable or None, default="fmin_l_bfgs_b"
         As in sklearn's ``GaussianProcessRegressor``: a callable is called as
         ``optimizer(obj_func, initial_theta, bounds)`` and returns
@@ -266,9 +163,19 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
         The maximised log-likelihood of ``y`` (in its own units), with ``beta``
         at its GLS estimate and, without noise, ``Sigma2`` concentrated out;
         ``+inf`` when every response is constant (predicted exactly).
-    alpha_ : float
+    nugget_ : float
         The nugget actually used: ``alpha``, or the escalated value when the
-        correlation matrix was numerically singular (see Notes).
+        correlation matrix was numerically singular
+        (:ref:`gp-nugget-escalation`).
+    active_responses_ : ndarray of bool of shape (q,)
+        Which responses vary, and so take part in the likelihood; the others
+        are constant and predicted exactly.
+    likelihood_ : NoiseFreeLikelihood, NoisyLikelihood or None
+        The factorised likelihood (:mod:`skmba._likelihood`) at the fitted
+        hyperparameters, in internal units (the active responses,
+        standardised): the Cholesky or eigen factors, ``beta``, ``sigma2``
+        and the predictive equations that the calibration modules reuse.
+        None when every response is constant.
     X_train_ : ndarray of shape (N, d)
     n_features_in_ : int
     feature_names_in_ : ndarray of str
@@ -278,51 +185,9 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
     --------
     sklearn.gaussian_process.GaussianProcessRegressor : one variance per
         fit, independent outputs.
-
-    Notes
-    -----
-    ``predict(..., return_std=True)`` gives the universal-kriging standard
-    deviation of the latent (noise-free) process, including the uncertainty
-    of ``beta`` (Eqs. 3.33 and 3.40). Add ``noise_`` to the variance to
-    predict a new noisy measurement.
-
-    **Nugget escalation.** Many close training points with a smooth kernel
-    (e.g. 1000 simulations of a smooth model with ``Gauss``) make the
-    correlation matrix ``R`` numerically singular. The fit detects it when
-    the Cholesky factorisation of ``R + alpha I`` fails at every starting
-    point, or when it failed during the likelihood search and the optimum
-    found is held positive definite only by the nugget (the smallest pivot
-    ``min_i C_ii^2`` of the factor is below ``100 max(alpha, N eps)``, a
-    search stopped by the failures). It then multiplies the nugget by 10
-    (starting from 1e-12 when ``alpha=0``), never beyond 1e-6, and fits
-    again from the best point so far. One ``UserWarning`` gives the nugget
-    used, which is stored in ``alpha_``; with it the GP smooths the training
-    data at that fraction of the process variance instead of interpolating
-    them exactly. If the factorisation still fails at 1e-6, a
-    :class:`~skmba._linalg.FactorizationError` (a ``ValueError``) names the
-    remedies; a search still stopped by failures at 1e-6 gives a
-    ``ConvergenceWarning``.
-
-    **Input checks.** Besides sklearn's checks (finite values, 2-D ``X``,
-    consistent lengths), ``fit`` raises a ``ValueError`` naming the fix for:
-    values beyond 1e150 in magnitude; fewer than ``p + 1`` samples; all rows
-    of ``X`` identical; regression terms that are not identifiable (e.g. a
-    constant column with ``regression="linear"``); and, without noise,
-    duplicated rows of ``X`` with different ``y`` (a noise-free GP cannot
-    interpolate both) or fewer than ``p + q`` samples for the ``q x q``
-    ``Sigma2`` (unless ``response_nugget > 0``). Duplicated rows with equal
-    ``y`` only give a ``UserWarning`` (they add nothing to a noise-free fit).
-    Constant input columns are harmless with ``regression="constant"``.
-
-    **Memory.** Before allocating, ``fit`` checks that the ``N x N``
-    correlation matrix, its gradient and the factorisation workspace (about
-    ``8 N^2 (n_hyperparameters + 4 [+ d for the DACE kernels])`` bytes) fit
-    in the available memory, and ``predict(..., return_cov=True)`` and
-    ``sample_y`` do the same for their ``(s q) x (s q)`` covariance; a
-    ``MemoryError`` gives the size and the remedy instead of swapping or
-    being killed (:func:`skmba._linalg.check_memory`). Means and standard
-    deviations are predicted in batches, so any number of points can be
-    predicted.
+    ModularBayesCalibrator : uses it to emulate the model and to model the
+        discrepancy.
+    skmba.kernels : the DACE correlation families.
 
     References
     ----------
@@ -344,6 +209,25 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
     >>> bool(np.all(std < 1e-2))
     True
     """
+
+    _parameter_constraints: ClassVar[dict] = {
+        "kernel": [
+            InstanceOf(
+                Kernel,
+                what="an sklearn Kernel",
+                hint="e.g. skmba.kernels.Gauss()",
+                allow_none=True,
+            )
+        ],
+        "regression": [Options(REGRESSIONS, hint="thesis Table 3.1")],
+        "noise": [Boolean()],
+        "alpha": [Real(minimum=0, hint="the nugget, e.g. 1e-10")],
+        "optimizer": [Options(("fmin_l_bfgs_b",), allow_none=True), Callable()],
+        "n_restarts_optimizer": [Count(minimum=0)],
+        "normalize_y": [Boolean()],
+        "random_state": "no_validation",  # check_random_state, in fit
+        "response_nugget": [Real(minimum=0, hint="e.g. 1e-8")],
+    }
 
     def __init__(
         self,
@@ -369,54 +253,6 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
         self.response_nugget = response_nugget
 
     # ------------------------------------------------------------------ fit
-    def _validate_params_(self):
-        check_regression(self.regression)
-        if not isinstance(self.alpha, Real) or not np.isfinite(self.alpha):
-            raise TypeError(f"alpha must be a finite float, got {self.alpha!r}.")
-        if self.alpha < 0:
-            raise ValueError(
-                f"alpha={self.alpha} is negative; the nugget must be >= 0 "
-                "(e.g. alpha=1e-10)."
-            )
-        if (
-            not isinstance(self.response_nugget, Real)
-            or not np.isfinite(self.response_nugget)
-            or self.response_nugget < 0
-        ):
-            raise ValueError(
-                "response_nugget must be a non-negative float, got "
-                f"{self.response_nugget!r}."
-            )
-        if (
-            not isinstance(self.n_restarts_optimizer, Integral)
-            or self.n_restarts_optimizer < 0
-        ):
-            raise ValueError(
-                "n_restarts_optimizer must be a non-negative integer, got "
-                f"{self.n_restarts_optimizer!r}."
-            )
-        if not (
-            self.optimizer is None
-            or callable(self.optimizer)
-            or self.optimizer == "fmin_l_bfgs_b"
-        ):
-            raise ValueError(
-                f"optimizer={self.optimizer!r} is not supported; use "
-                "'fmin_l_bfgs_b', None or a callable."
-            )
-        if self.kernel is not None and not isinstance(self.kernel, Kernel):
-            raise TypeError(
-                "kernel must be an sklearn Kernel (e.g. skmba.kernels.Gauss()) "
-                f"or None, got {type(self.kernel).__name__}."
-            )
-        for name in ("noise", "normalize_y"):
-            value = getattr(self, name)
-            if not isinstance(value, bool | np.bool_):
-                raise TypeError(
-                    f"{name} must be True or False, got {value!r}. Pass a "
-                    f"bool, e.g. {name}=True."
-                )
-
     def fit(self, X, y):
         """Fit the Gaussian process by maximum likelihood.
 
@@ -432,7 +268,7 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
         Raises
         ------
         ValueError
-            On invalid data or parameters (see the class Notes); a
+            On invalid data or parameters (see :ref:`gp-input-checks`); a
             :class:`~skmba._linalg.FactorizationError` (a ``ValueError``) when
             a matrix cannot be factored even after the nugget escalation.
         TypeError
@@ -460,7 +296,59 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
                 raise
 
     def _fit(self, X, y):
-        self._validate_params_()
+        validate_parameter_table(self)
+        X, Y = self._validate_training_data(X, y)
+        n, d = X.shape
+        check_magnitudes(X, Y)
+        p = n_regression_terms(self.regression, d)
+        check_sample_size(n, d, p, self.regression)
+        H = regression_basis(X, self.regression)
+        check_rows(X, Y, H, self.regression, self.noise)
+        kernel = default_kernel(X) if self.kernel is None else clone(self.kernel)
+        check_correlation(kernel, X)
+        self._check_fit_memory(kernel, n, d)
+        self.X_train_ = X
+        self._H = H
+        self.nugget_ = float(self.alpha)
+        Ya = self._standardise(Y)
+        q = Ya.shape[1]
+        self._ridge = (
+            self.response_nugget * float(np.mean(Ya.var(axis=0))) if q else 0.0
+        )
+        if not self.noise and self._ridge == 0:
+            check_covariance_size(n, q, p, self.regression)
+
+        if q == 0:
+            warnings.warn(
+                "All responses are constant: the GP predicts them exactly and "
+                "the kernel is not fitted.",
+                UserWarning,
+                stacklevel=3,
+            )
+            self.kernel_ = kernel
+            self.likelihood_ = None
+            self.log_marginal_likelihood_value_ = np.inf
+        else:
+            problem = LikelihoodProblem(
+                X,
+                H,
+                Ya,
+                nugget=self.nugget_,
+                alpha=self.alpha,
+                ridge=self._ridge,
+                optimizer=self.optimizer,
+                n_restarts=self.n_restarts_optimizer,
+                random_state=self.random_state,
+                differences=pairwise_differences(kernel, X),
+            )
+            fit_path = fit_noisy if self.noise else fit_noise_free
+            self.kernel_, self.likelihood_ = fit_path(problem, kernel)
+            self.nugget_ = problem.nugget
+        self._set_user_attributes(Y.shape[1], p)
+        return self
+
+    def _validate_training_data(self, X, y):
+        """sklearn's checks; X as float and y as an (n, q) float array."""
         y_ndim = np.asarray(y).ndim
         if y_ndim > 2:
             raise ValueError(
@@ -470,21 +358,10 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
         X, y = validate_data(self, X, y, multi_output=True, y_numeric=True)
         X = X.astype(float, copy=False)
         self._y_ndim = y.ndim
-        Y = np.asarray(y, dtype=float).reshape(len(y), -1)
-        n, d = X.shape
-        _check_magnitudes(X, Y)
-        p = n_regression_terms(self.regression, d)
-        if n <= p:
-            raise ValueError(
-                f"n_samples={n} is too few for regression={self.regression!r} "
-                f"with {d} features: at least {p + 1} samples are needed "
-                f"(p={p} regression terms). Add samples or use a lower-order "
-                "regression."
-            )
-        H = regression_basis(X, self.regression)
-        self._check_inputs(X, Y, H)
-        kernel = default_kernel(X) if self.kernel is None else clone(self.kernel)
-        check_correlation(kernel, X)
+        return X, np.asarray(y, dtype=float).reshape(len(y), -1)
+
+    def _check_fit_memory(self, kernel, n, d):
+        """MemoryError before allocating the N x N matrices that do not fit."""
         n_hyper = kernel.n_dims + int(self.noise)
         n_diff = d if isinstance(kernel, _DACECorrelation) else 0
         check_memory(
@@ -495,13 +372,16 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
             "Fit on fewer samples (e.g. a space-filling subset of the "
             "simulations) or use a machine with more memory.",
         )
-        self.X_train_ = X
-        self._H = H
-        self.alpha_ = float(self.alpha)
 
-        # Internal standardisation; constant responses are handled exactly.
+    def _standardise(self, Y):
+        """The active responses of ``Y`` in internal units (Appendix C.2).
+
+        Constant responses are set aside (``active_responses_``) and
+        predicted exactly.
+        """
         spread = np.ptp(Y, axis=0)
-        self._active = spread > 1e-12 * np.maximum(np.abs(Y).max(axis=0), 1e-300)
+        active = spread > 1e-12 * np.maximum(np.abs(Y).max(axis=0), 1e-300)
+        self.active_responses_ = active
         self._constant = Y[0].copy()
         # scaled by the peak first: no underflow of tiny responses' squares
         peak = np.abs(Y).max(axis=0)
@@ -509,7 +389,7 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
         std = (Y / peak).std(axis=0) * peak
         if self.normalize_y:
             self._y_mean = Y.mean(axis=0)
-            self._y_std = np.where(self._active, std, 1.0)
+            self._y_std = np.where(active, std, 1.0)
         else:
             # Power-of-two scales: exact in floating point, they leave the
             # model unchanged (it is equivariant to rescaling each response)
@@ -517,397 +397,17 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
             self._y_mean = np.zeros(Y.shape[1])
             with np.errstate(divide="ignore"):
                 exponent = np.round(np.log2(std))
-            self._y_std = np.where(self._active, 2.0**exponent, 1.0)
-        Ya = ((Y - self._y_mean) / self._y_std)[:, self._active]
-        self._Y = Ya
-        # Scale of the (internal) responses for noise/Sigma2 parametrisation.
-        self._scale = Ya.std(axis=0) if Ya.size else np.ones(0)
-        q = Ya.shape[1]
-        self._ridge = (
-            self.response_nugget * float(np.mean(Ya.var(axis=0))) if q else 0.0
-        )
-        if not self.noise and q > n - p and self._ridge == 0:
-            raise ValueError(
-                f"n_samples={n} is too few to estimate the {q} x {q} response "
-                "covariance sigma2_ of a noise-free fit with "
-                f"regression={self.regression!r} (p={p} terms): it needs "
-                f"n_samples >= p + q = {p + q}. Add samples, set "
-                "response_nugget (e.g. 1e-8), fit fewer responses at once, or "
-                "use noise=True."
-            )
-
-        if q == 0:
-            warnings.warn(
-                "All responses are constant: the GP predicts them exactly and "
-                "the kernel is not fitted.",
-                UserWarning,
-                stacklevel=3,
-            )
-            self.kernel_ = kernel
-            self._fit_state = None
-            self.log_marginal_likelihood_value_ = np.inf
-        elif self.noise:
-            self._fit_noisy(kernel, Ya, self._differences(kernel))
-        else:
-            self._fit_noise_free(kernel, Ya, self._differences(kernel))
-        self._set_user_attributes(Y.shape[1], p)
-        return self
-
-    def _check_inputs(self, X, Y, H):
-        """Identical rows, unidentifiable regression, noise-free duplicates."""
-        n = len(X)
-        _, first, inverse = np.unique(X, axis=0, return_index=True, return_inverse=True)
-        if len(first) == 1:
-            raise ValueError(
-                f"All {n} rows of X are identical: the GP cannot learn how the "
-                "responses vary with the inputs. Provide at least 2 distinct "
-                "input points."
-            )
-        _check_regression_rank(X, H, self.regression)
-        if self.noise or len(first) == n:
-            return
-        source = first[np.reshape(inverse, -1)]  # first occurrence of each row
-        dup = np.flatnonzero(source != np.arange(n))
-        tol = 1e-8 * np.ptp(Y, axis=0)
-        differ = np.any(np.abs(Y[dup] - Y[source[dup]]) > tol, axis=1)
-        if np.any(differ):
-            i = dup[np.argmax(differ)]
-            raise ValueError(
-                f"X has {int(differ.sum())} duplicated row(s) with different y "
-                f"(e.g. rows {source[i]} and {i}): a noise-free GP "
-                "interpolates and cannot pass through both. Fit with "
-                "noise=True (measurements, stochastic simulators), or average "
-                "the duplicated runs."
-            )
-        warnings.warn(
-            f"X has {dup.size} duplicated row(s) (e.g. rows {source[dup[0]]} and "
-            f"{dup[0]}) with equal y: they add no information to a noise-free "
-            "GP and make the correlation matrix singular up to the nugget "
-            "alpha. Remove them to save time.",
-            UserWarning,
-            stacklevel=4,
-        )
-
-    def _correlation(self, kernel, eval_gradient, differences=None):
-        """Training correlation (+ nugget) and its gradient.
-
-        ``differences``, the per-dimension ``|x_i - x_j|`` of the training
-        inputs, lets the DACE kernels skip recomputing them at every
-        likelihood evaluation.
-        """
-        X = self.X_train_
-        if differences is not None and isinstance(kernel, _DACECorrelation):
-            out = kernel._from_differences(differences, eval_gradient)
-            R, dR = out if eval_gradient else (out, None)
-        elif eval_gradient:
-            R, dR = kernel(X, eval_gradient=True)
-        else:
-            R, dR = kernel(X), None
-        R[np.diag_indices(len(X))] += self.alpha_
-        return R, dR
-
-    def _differences(self, kernel):
-        """Per-dimension |x_i - x_j| for DACE kernels, else None."""
-        if not isinstance(kernel, _DACECorrelation):
-            return None
-        X = self.X_train_
-        return np.abs(X[:, np.newaxis, :] - X[np.newaxis, :, :])
-
-    def _run_optimizer(self, objective, starts, bounds, optimizer, failures):
-        """Minimise ``objective`` from each start.
-
-        ``failures`` is the list the objective appends factorisation errors
-        to. Returns an :class:`_Search`: the best point (None when the
-        objective could not be evaluated from any start), the failures
-        recorded during the run that found it (all of them when none did),
-        that run's L-BFGS-B non-convergence messages, and whether it ended
-        with a flat projected gradient (None for a callable optimizer).
-        """
-        best = _Search(None, list(failures), [], None)
-        best_fun = np.inf
-        for start in starts:
-            mark = len(failures)
-            notes, flat = [], None
-            if callable(optimizer):
-                x, fun = optimizer(objective, start, bounds)
-            else:
-                res = optimize.minimize(
-                    objective, start, method="L-BFGS-B", jac=True, bounds=bounds
-                )
-                x, fun = res.x, res.fun
-                flat = bool(
-                    np.all(
-                        np.abs(_projected_gradient(res, bounds))
-                        <= _FLAT_GRADIENT * (1.0 + abs(res.fun))
-                    )
-                )
-                if not res.success and np.isfinite(res.fun) and not flat:
-                    notes.append(str(res.message))
-            fun = float(fun)
-            if np.isfinite(fun) and (best.x is None or fun < best_fun):
-                best = _Search(np.asarray(x, dtype=float), failures[mark:], notes, flat)
-                best_fun = fun
-        if best.x is None:
-            return _Search(None, list(failures), [], None)
-        return best
-
-    @staticmethod
-    def _warn_not_converged(notes, stacklevel):
-        for note in notes:
-            warnings.warn(
-                "L-BFGS-B did not fully converge while fitting "
-                f"MultiResponseGP ({note}). Consider more "
-                "n_restarts_optimizer, other kernel bounds or a larger "
-                "alpha.",
-                ConvergenceWarning,
-                stacklevel=stacklevel,
-            )
-
-    def _fit_concentrated(self, kernel, Y, with_nugget, differences):
-        """Maximise the likelihood with beta and Sigma2 concentrated out.
-
-        Covariance ``Sigma2 ⊗ (R + (alpha_ + tau) I)``; ``tau`` (a noise to
-        signal ratio shared by all responses) is optimised in log space when
-        ``with_nugget`` is True, and is 0 otherwise. The nugget ``alpha_`` is
-        escalated while ``R`` is numerically singular (class Notes). Returns
-        the fitted kernel, ``tau`` and the :class:`NoiseFreeLikelihood` at
-        the optimum.
-        """
-        H = self._H
-        n_kernel = kernel.n_dims
-        n = len(self.X_train_)
-
-        def likelihood(params, eval_gradient):
-            k = kernel.clone_with_theta(params[:n_kernel]) if n_kernel else kernel
-            R, dR = self._correlation(k, eval_gradient, differences)
-            if with_nugget:
-                tau = np.exp(params[n_kernel])
-                R[np.diag_indices(n)] += tau
-                if eval_gradient:
-                    dtau = np.zeros((n, n, 1))
-                    dtau[np.arange(n), np.arange(n), 0] = tau
-                    dR = np.concatenate([dR, dtau], axis=2)
-            return NoiseFreeLikelihood(R, H, Y, dR, ridge=self._ridge)
-
-        def objective(params, eval_gradient=True):
-            try:
-                fit = likelihood(params, eval_gradient)
-            except FactorizationError as exc:
-                failures.append(exc)
-                return (np.inf, np.zeros_like(params)) if eval_gradient else np.inf
-            if eval_gradient:
-                return -fit.log_likelihood, -fit.gradient
-            return -fit.log_likelihood
-
-        failures = []
-        x0 = kernel.theta
-        bounds = kernel.bounds if n_kernel else np.zeros((0, 2))
-        if with_nugget:
-            x0 = np.append(x0, np.log(0.1))
-            bounds = np.vstack([bounds, _LOG_NOISE_BOUNDS])
-        free_kernel = self.optimizer is not None and n_kernel > 0
-        if not free_kernel:
-            bounds[:n_kernel] = x0[:n_kernel, None]
-        search = free_kernel or with_nugget
-        starts = [x0]
-        if search:
-            rng = check_random_state(self.random_state)
-            for _ in range(self.n_restarts_optimizer):
-                start = x0.copy()
-                if free_kernel:
-                    start[:n_kernel] = rng.uniform(
-                        bounds[:n_kernel, 0], bounds[:n_kernel, 1]
-                    )
-                if with_nugget:
-                    start[n_kernel] = rng.uniform(np.log(1e-4), 0.0)
-                starts.append(start)
-        optimizer = self.optimizer if callable(self.optimizer) else "fmin_l_bfgs_b"
-
-        nugget, reason = self.alpha_, None
-        while True:
-            self.alpha_ = nugget
-            failures.clear()
-            notes = []
-            if search:
-                x, found, notes, flat = self._run_optimizer(
-                    objective, starts, bounds, optimizer, failures
-                )
-            else:
-                x, found, flat = x0, [], None
-            fit = None
-            if x is not None:
-                try:
-                    fit = likelihood(x, False)
-                except FactorizationError as exc:
-                    found.append(exc)
-            # The search was stopped by failed factorisations of R when it
-            # ended away from a stationary point, or where only the nugget
-            # keeps R positive definite.
-            r_failed = any(getattr(e, "what", None) == R_WHAT for e in found)
-            stopped = (
-                fit is not None
-                and r_failed
-                and (
-                    flat is False
-                    or smallest_pivot(fit.C)
-                    <= _PIVOT_MARGIN * max(nugget, n * np.finfo(float).eps)
-                )
-            )
-            if fit is not None and not stopped:
-                break
-            if not r_failed:
-                # e.g. a singular Sigma2 or H: a larger nugget cannot help.
-                raise FactorizationError(
-                    "The likelihood could not be evaluated at any starting "
-                    f"point. Last error: {found[-1] if found else 'none recorded'}"
-                )
-            if reason is None:
-                reason = (
-                    "the likelihood search was stopped by failed Cholesky "
-                    "factorisations"
-                    if stopped
-                    else "its Cholesky factorisation failed"
-                )
-            following = _next_nugget(nugget)
-            if following is None:
-                if fit is None:
-                    tried = (
-                        f"the nugget is escalated from alpha={self.alpha:.3g} up "
-                        f"to {_MAX_ALPHA:.0e}"
-                        if self.alpha < _MAX_ALPHA
-                        else f"an alpha >= {_MAX_ALPHA:.0e} is not escalated"
-                    )
-                    raise FactorizationError(
-                        f"The {R_WHAT} is numerically singular even with the "
-                        f"nugget alpha={nugget:.3g} ({tried}): its Cholesky "
-                        "factorisation fails. Remedies: remove duplicated or "
-                        "nearly duplicated input points, use a rougher kernel "
-                        "(Exp, Matern, a larger lower bound on the roughness) "
-                        "or a positive definite one (not Cubic), fit with "
-                        "noise=True, or set a larger alpha explicitly.",
-                        what=R_WHAT,
-                    ) from found[-1]
-                notes.append(
-                    "the likelihood search is still stopped by a numerically "
-                    f"singular correlation matrix at the largest nugget "
-                    f"alpha={nugget:.3g}; {R_REMEDY}"
-                )
-                break
-            nugget = following
-            if fit is not None:
-                starts = [x]  # resume from the best point so far
-        self._warn_not_converged(notes, stacklevel=6)
-        if self.alpha_ != self.alpha:
-            warnings.warn(
-                f"The {R_WHAT} was numerically singular with the nugget "
-                f"alpha={self.alpha:.3g} ({reason}), so the nugget was raised to "
-                f"alpha_={self.alpha_:.3g} (escalation by 10x up to "
-                f"{_MAX_ALPHA:.0e}). The GP now smooths the training data at "
-                "that fraction of the process variance instead of interpolating "
-                f"them exactly. Set alpha={self.alpha_:.3g} to skip the refits, "
-                "or remove nearly duplicated inputs or use a rougher kernel.",
-                UserWarning,
-                stacklevel=5,
-            )
-        fitted = kernel.clone_with_theta(x[:n_kernel]) if n_kernel else kernel
-        tau = float(np.exp(x[n_kernel])) if with_nugget else 0.0
-        return fitted, tau, fit
-
-    def _fit_noise_free(self, kernel, Y, differences):
-        self.kernel_, _, self._fit_state = self._fit_concentrated(
-            kernel, Y, False, differences
-        )
-
-    def _fit_noisy(self, kernel, Y, differences):
-        """Fit ``Sigma2 ⊗ R + Lambda ⊗ I`` on the profile likelihood.
-
-        1. A concentrated fit with noise proportional to ``Sigma2``
-           (``V = Sigma2 ⊗ (R + tau I)``): one Cholesky per evaluation, and the
-           only step with random restarts. It gives the starting point.
-        2. The kernel hyperparameters maximise the profile likelihood
-           ``max over (Sigma2, Lambda)``: for each kernel, ``Sigma2`` and
-           ``Lambda`` come from Levenberg-Marquardt on the Fisher
-           information, on one eigendecomposition of ``R`` (O(N q^2) per
-           likelihood, warm-started from the previous kernel, in
-           ``Sigma2 = L L'`` coordinates so that the nearly singular
-           ``Sigma2`` of strongly correlated responses is reached), and the
-           gradient with respect to the kernel is the partial one at that
-           maximum (envelope theorem). The optimizer sees only the kernel's
-           hyperparameters, whatever ``q``.
-        """
-        H = self._H
-        n_kernel = kernel.n_dims
-        try:
-            kernel, tau, stage1 = self._fit_concentrated(kernel, Y, True, differences)
-            sigma2 = stage1.sigma2
-            lam = tau * np.diag(sigma2)
-        except FactorizationError:
-            # e.g. responses that are exact linear combinations of others make
-            # every proportional-noise Sigma2 singular; per-response noise
-            # still separates them. Start from the sample covariance instead.
-            cov = np.atleast_2d(np.cov(Y, rowvar=False, bias=True))
-            sigma2 = 0.9 * cov + 1e-3 * np.diag(self._scale**2)
-            lam = 0.1 * self._scale**2
-        lam_bounds = np.exp(_LOG_NOISE_BOUNDS) * self._scale[:, None] ** 2
-        warm = {"sigma2": sigma2, "lam": np.clip(lam, *lam_bounds.T), "best": -np.inf}
-        failures = []
-
-        def profile(k, eval_gradient):
-            R, dR = self._correlation(k, eval_gradient, differences)
-            eig = symmetric_eigh(R, what=R_WHAT)
-            fit, _ = maximise_noise_and_sigma2(
-                R,
-                H,
-                Y,
-                warm["sigma2"],
-                warm["lam"],
-                eig=eig,
-                lam_bounds=lam_bounds,
-                tol=_SCORING_TOL,
-                max_iter=_MAX_SCORING_STEPS,
-            )
-            # Warm-start the next kernel from the best point so far, not from
-            # a line-search trial: a poor kernel can drive Sigma2 to 0, a
-            # stationary point of the L L' coordinates.
-            if fit.log_likelihood > warm["best"]:
-                warm.update(sigma2=fit.sigma2, lam=fit.ke.lam, best=fit.log_likelihood)
-            if eval_gradient:
-                fit = NoisyLikelihood(R, H, Y, fit.sigma2, fit.ke.lam, dR, eig=eig)
-            return fit
-
-        def objective(theta, eval_gradient=True):
-            try:
-                fit = profile(kernel.clone_with_theta(theta), eval_gradient)
-            except (FactorizationError, np.linalg.LinAlgError) as exc:
-                failures.append(exc)
-                return (np.inf, np.zeros_like(theta)) if eval_gradient else np.inf
-            if eval_gradient:
-                return -fit.log_likelihood, -fit.grad_kernel
-            return -fit.log_likelihood
-
-        if self.optimizer is not None and n_kernel:
-            optimizer = self.optimizer if callable(self.optimizer) else "fmin_l_bfgs_b"
-            theta, found, notes, _ = self._run_optimizer(
-                objective, [kernel.theta], kernel.bounds, optimizer, failures
-            )
-            if theta is None:
-                raise FactorizationError(
-                    "The likelihood could not be evaluated at any starting "
-                    f"point. Last error: {found[-1] if found else 'none recorded'}",
-                    what=getattr(found[-1], "what", None) if found else None,
-                )
-            self._warn_not_converged(notes, stacklevel=5)
-            kernel = kernel.clone_with_theta(theta)
-        self.kernel_ = kernel
-        self._fit_state = profile(kernel, False)
+            self._y_std = np.where(active, 2.0**exponent, 1.0)
+        self._Y = ((Y - self._y_mean) / self._y_std)[:, active]
+        return self._Y
 
     def _set_user_attributes(self, q_total, p):
         """Fitted attributes in the units of y (constant responses exact)."""
-        active, std, mean = self._active, self._y_std, self._y_mean
+        active, std, mean = self.active_responses_, self._y_std, self._y_mean
         beta = np.zeros((p, q_total))
         sigma2 = np.zeros((q_total, q_total))
         beta[0, ~active] = self._constant[~active]
-        state = self._fit_state
+        state = self.likelihood_
         if state is not None:
             beta[:, active] = state.beta * std[active]
             beta[0, active] += mean[active]
@@ -934,7 +434,7 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
         check_is_fitted(self)
         X = validate_data(self, X, reset=False).astype(float, copy=False)
         s = len(X)
-        q = self._active.size
+        q = self.active_responses_.size
         if full_cov:
             check_memory(
                 8.0 * n_copies * (s * q) ** 2,
@@ -959,12 +459,12 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
     def _predict_batch(self, X, full_cov):
         """Moments at validated points ``X`` (one batch)."""
         s = len(X)
-        q = self._active.size
+        q = self.active_responses_.size
         mean = np.tile(self._constant, (s, 1))
         cov = np.zeros((s, q, s, q)) if full_cov else np.zeros((s, q))
-        state = self._fit_state
+        state = self.likelihood_
         if state is not None:
-            idx = np.flatnonzero(self._active)
+            idx = np.flatnonzero(self.active_responses_)
             std = self._y_std[idx]
             r_cross = self.kernel_(self.X_train_, X)
             r_star = self.kernel_(X) if full_cov else self.kernel_.diag(X)
@@ -1006,7 +506,10 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
         ----------
         X : array-like of shape (n_samples, n_features)
         return_std : bool, default=False
-            Also return the predictive standard deviation.
+            Also return the predictive standard deviation: the
+            universal-kriging one of the latent (noise-free) process,
+            including the uncertainty of ``beta`` (Eqs. 3.33 and 3.40). Add
+            ``noise_`` to the variance to predict a new noisy measurement.
         return_cov : bool, default=False
             Also return the joint predictive covariance. Its layout: for 1-D
             training ``y``, shape (n_samples, n_samples); for 2-D ``y``, shape
@@ -1066,11 +569,7 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
             its eigenvectors and their scaled copy do not fit in the
             available memory.
         """
-        if (
-            not isinstance(n_samples, Integral)
-            or isinstance(n_samples, bool | np.bool_)
-            or n_samples < 1
-        ):
+        if not Count().accepts(n_samples):
             raise ValueError(
                 "n_samples must be a positive integer (the number of joint "
                 f"draws), got {n_samples!r}; e.g. n_samples=1."
@@ -1118,7 +617,7 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
             if eval_gradient:
                 raise ValueError("Gradient can only be evaluated for theta!=None")
             return self.log_marginal_likelihood_value_
-        if self._fit_state is None:
+        if self.likelihood_ is None:
             raise ValueError(
                 "All responses are constant: the likelihood does not depend on "
                 "the kernel."
@@ -1131,14 +630,14 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
                 f"{theta.shape}."
             )
         kernel = self.kernel_.clone_with_theta(theta)
-        R, dR = self._correlation(kernel, eval_gradient)
+        R, dR = correlation(kernel, self.X_train_, self.nugget_, eval_gradient)
         if self.noise:
-            state = self._fit_state
+            state = self.likelihood_
             fit = NoisyLikelihood(R, self._H, self._Y, state.sigma2, state.ke.lam, dR)
             grad = fit.grad_kernel
         else:
             fit = NoiseFreeLikelihood(R, self._H, self._Y, dR, ridge=self._ridge)
             grad = fit.gradient
-        shift = len(self.X_train_) * np.sum(np.log(self._y_std[self._active]))
+        shift = len(self.X_train_) * np.sum(np.log(self._y_std[self.active_responses_]))
         value = fit.log_likelihood - shift
         return (value, grad) if eval_gradient else value

@@ -36,6 +36,7 @@ from scipy import linalg
 from scipy.linalg import lapack
 
 from skmba._linalg import (
+    LOG_2PI,
     FactorizationError,
     KroneckerEigen,
     cholesky,
@@ -43,8 +44,6 @@ from skmba._linalg import (
     symmetric_eigh,
     whitened_gls,
 )
-
-LOG_2PI = np.log(2.0 * np.pi)
 
 #: Name given to the correlation matrix in factorisation errors
 #: (``FactorizationError.what``): only its failures are repaired by a larger
@@ -363,6 +362,82 @@ class NoisyLikelihood:
         return score, info
 
 
+def _lower_root(sigma2):
+    """Lower-triangular L with L L' = sigma2 (PSD), through a QR."""
+    values, vectors = linalg.eigh(0.5 * (sigma2 + sigma2.T))
+    root = vectors * np.sqrt(np.clip(values, 0.0, None))
+    return linalg.qr(root.T, mode="r")[0][: len(sigma2)].T
+
+
+class _FixedKernel:
+    """The noisy likelihood as a function of ``(Sigma2, log lam)`` alone."""
+
+    def __init__(self, R, H, Y, eig):
+        self.R, self.H, self.Y, self.eig = R, H, Y, eig
+
+    def evaluate(self, sigma2, log_lam, gradient=False):
+        N = len(self.Y)
+        dR = np.zeros((N, N, 0)) if gradient else None
+        return NoisyLikelihood(
+            self.R, self.H, self.Y, sigma2, np.exp(log_lam), dR, eig=self.eig
+        )
+
+    def revive(self, fit, log_lam):
+        """Grow a singular Sigma2 along its null space where that helps.
+
+        Columns of L that reach 0 are stationary in L coordinates, so the
+        Levenberg-Marquardt iterations cannot bring them back; the
+        Karush-Kuhn-Tucker condition on the null space of Sigma2 can.
+        """
+        values, vectors = linalg.eigh(fit.sigma2)
+        null = vectors[:, values <= 1e-8 * max(values[-1], 1e-300)]
+        if null.shape[1] == 0:
+            return None
+        grad = self.evaluate(fit.sigma2, log_lam, gradient=True).grad_sigma2
+        mu, v = linalg.eigh(null.T @ grad @ null)
+        if mu[-1] <= 0:
+            return None
+        u = null @ v[:, -1]
+        best, size = None, 1e-6 * max(np.trace(fit.sigma2), np.exp(log_lam).max())
+        for _ in range(12):
+            candidate = self.evaluate(fit.sigma2 + size * np.outer(u, u), log_lam)
+            if candidate.log_likelihood <= (best or fit).log_likelihood:
+                break
+            best, size = candidate, size * 4.0
+        return best
+
+    def damped_step(self, fit, L, log_lam, damping, log_bounds):
+        """One Levenberg-Marquardt step from ``fit`` that raises the likelihood.
+
+        Returns ``((L, log_lam, fit) or None, damping)``: the damping grows
+        until a step is accepted (or beyond 1e10: None), then shrinks.
+        """
+        la, lb = np.tril_indices(len(L))
+        score, info = fit.fisher_score_and_information(L)
+        scale = np.diag(info).copy()
+        scale[scale <= 0] = 1.0
+        while damping < 1e10:
+            try:
+                factor = linalg.cho_factor(info + damping * np.diag(scale))
+            except linalg.LinAlgError:
+                damping *= 10.0
+                continue
+            step = linalg.cho_solve(factor, score)
+            L_new = L.copy()
+            L_new[la, lb] += step[: la.size]
+            log_lam_new = np.clip(
+                log_lam + step[la.size :], log_bounds[:, 0], log_bounds[:, 1]
+            )
+            try:
+                candidate = self.evaluate(L_new @ L_new.T, log_lam_new)
+            except FactorizationError:
+                candidate = None
+            if candidate is not None and candidate.log_likelihood > fit.log_likelihood:
+                return (L_new, log_lam_new, candidate), max(damping / 3.0, 1e-9)
+            damping *= 4.0
+        return None, damping
+
+
 def maximise_noise_and_sigma2(R, H, Y, sigma2, lam, *, eig, lam_bounds, tol, max_iter):
     """Maximise the likelihood over ``(Sigma2, lam)`` with the kernel fixed.
 
@@ -386,84 +461,23 @@ def maximise_noise_and_sigma2(R, H, Y, sigma2, lam, *, eig, lam_bounds, tol, max
     n_iter : int
         Number of information evaluations.
     """
-    q = lam.size
-    N = len(Y)
-    la, lb = np.tril_indices(q)
+    model = _FixedKernel(R, H, Y, eig)
     log_bounds = np.log(lam_bounds)  # (q, 2)
     log_lam = np.clip(np.log(lam), log_bounds[:, 0], log_bounds[:, 1])
-
-    def evaluate(sigma2, log_lam, gradient=False):
-        dR = np.zeros((N, N, 0)) if gradient else None
-        return NoisyLikelihood(R, H, Y, sigma2, np.exp(log_lam), dR, eig=eig)
-
-    def lower_root(sigma2):
-        """Lower-triangular L with L L' = sigma2 (PSD), through a QR."""
-        values, vectors = linalg.eigh(0.5 * (sigma2 + sigma2.T))
-        root = vectors * np.sqrt(np.clip(values, 0.0, None))
-        return linalg.qr(root.T, mode="r")[0][:q].T
-
-    def revive(fit, log_lam):
-        """Grow a singular Sigma2 along its null space where that helps.
-
-        Columns of L that reach 0 are stationary in L coordinates, so the
-        Levenberg-Marquardt iterations cannot bring them back; the
-        Karush-Kuhn-Tucker condition on the null space of Sigma2 can.
-        """
-        values, vectors = linalg.eigh(fit.sigma2)
-        null = vectors[:, values <= 1e-8 * max(values[-1], 1e-300)]
-        if null.shape[1] == 0:
-            return None
-        grad = evaluate(fit.sigma2, log_lam, gradient=True).grad_sigma2
-        mu, v = linalg.eigh(null.T @ grad @ null)
-        if mu[-1] <= 0:
-            return None
-        u = null @ v[:, -1]
-        best, size = None, 1e-6 * max(np.trace(fit.sigma2), np.exp(log_lam).max())
-        for _ in range(12):
-            candidate = evaluate(fit.sigma2 + size * np.outer(u, u), log_lam)
-            if candidate.log_likelihood <= (best or fit).log_likelihood:
-                break
-            best, size = candidate, size * 4.0
-        return best
-
-    fit = evaluate(lower_root(sigma2) @ lower_root(sigma2).T, log_lam)
-    L = lower_root(fit.sigma2)
+    fit = model.evaluate(_lower_root(sigma2) @ _lower_root(sigma2).T, log_lam)
+    L = _lower_root(fit.sigma2)
     damping = 1e-3
     n_iter = 0
     while n_iter < max_iter:
         n_iter += 1
-        score, info = fit.fisher_score_and_information(L)
-        scale = np.diag(info).copy()
-        scale[scale <= 0] = 1.0
-        accepted = None
-        while damping < 1e10:
-            try:
-                factor = linalg.cho_factor(info + damping * np.diag(scale))
-            except linalg.LinAlgError:
-                damping *= 10.0
-                continue
-            step = linalg.cho_solve(factor, score)
-            L_new = L.copy()
-            L_new[la, lb] += step[: la.size]
-            log_lam_new = np.clip(
-                log_lam + step[la.size :], log_bounds[:, 0], log_bounds[:, 1]
-            )
-            try:
-                candidate = evaluate(L_new @ L_new.T, log_lam_new)
-            except FactorizationError:
-                candidate = None
-            if candidate is not None and candidate.log_likelihood > fit.log_likelihood:
-                accepted = (L_new, log_lam_new, candidate)
-                damping = max(damping / 3.0, 1e-9)
-                break
-            damping *= 4.0
+        accepted, damping = model.damped_step(fit, L, log_lam, damping, log_bounds)
         if accepted is not None:
             gain = accepted[2].log_likelihood - fit.log_likelihood
             L, log_lam, fit = accepted
             if gain > tol * (1.0 + abs(fit.log_likelihood)):
                 continue
-        revived = revive(fit, log_lam)
+        revived = model.revive(fit, log_lam)
         if revived is None:
             break
-        fit, L, damping = revived, lower_root(revived.sigma2), 1e-3
+        fit, L, damping = revived, _lower_root(revived.sigma2), 1e-3
     return fit, n_iter

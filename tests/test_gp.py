@@ -24,8 +24,12 @@ from sklearn.preprocessing import StandardScaler
 
 import skmba
 from skmba import MultiResponseGP
-from skmba._gp import _next_nugget
-from skmba._likelihood import NoisyLikelihood, maximise_noise_and_sigma2
+from skmba._gp_search import next_nugget
+from skmba._likelihood import (
+    NoiseFreeLikelihood,
+    NoisyLikelihood,
+    maximise_noise_and_sigma2,
+)
 from skmba._linalg import FactorizationError, symmetric_eigh
 from skmba._regression import regression_basis
 from skmba.datasets import make_cantilever
@@ -352,6 +356,15 @@ def test_constant_response_is_predicted_exactly():
     with pytest.warns(UserWarning, match="constant"):
         gp_all = MultiResponseGP().fit(X, np.full((20, 2), 1.0))
     np.testing.assert_allclose(gp_all.predict(X[:3]), 1.0)
+    # the documented fitted attributes that other modules read
+    np.testing.assert_array_equal(gp.active_responses_, [True, False])
+    assert isinstance(gp.likelihood_, NoiseFreeLikelihood)
+    assert gp.likelihood_.sigma2.shape == (1, 1)  # the active response only
+    assert gp_all.likelihood_ is None and not gp_all.active_responses_.any()
+    noisy = MultiResponseGP(noise=True).fit(X, Y)
+    assert isinstance(noisy.likelihood_, NoisyLikelihood)
+    for name in ("_fit_state", "_active", "alpha_"):
+        assert not hasattr(gp, name)
 
 
 def test_optimizer_callable_none_and_restarts():
@@ -618,14 +631,14 @@ BAD_INPUT = {
     "alpha-negative": (
         _fit(alpha=-1.0),
         ValueError,
-        r"alpha=-1.0 is negative; the nugget must be >= 0 \(e.g. alpha=1e-10\)",
+        r"alpha must be a finite float >= 0 \(the nugget, e.g. 1e-10\), got -1.0",
     ),
     "alpha-nan": (_fit(alpha=np.nan), TypeError, "alpha must be a finite float"),
     "alpha-string": (_fit(alpha="big"), TypeError, "alpha must be a finite float"),
     "response_nugget-negative": (
         _fit(response_nugget=-1e-8),
         ValueError,
-        "response_nugget must be a non-negative float",
+        "response_nugget must be a finite float >= 0",
     ),
     "sample_y-n_samples-zero": (
         lambda gp: gp.sample_y(X_BAD[:2], n_samples=0),
@@ -733,12 +746,12 @@ def test_duplicate_inputs_without_nugget_escalate_it():
     with pytest.warns(UserWarning, match="duplicated row"):
         with pytest.warns(UserWarning, match=r"nugget alpha=0 \(its Cholesky"):
             gp.fit(X, y)
-    assert 0 < gp.alpha_ <= 1e-6
+    assert 0 < gp.nugget_ <= 1e-6
     assert gp.score(X, y) > 0.99
     # a nugget or a noise term handles them from the start
     with pytest.warns(UserWarning, match="duplicated row"):
         gp = MultiResponseGP(Gauss(roughness=1.0), alpha=1e-6).fit(X, y)
-    assert gp.alpha_ == 1e-6
+    assert gp.nugget_ == 1e-6
     MultiResponseGP(Gauss(roughness=1.0), noise=True).fit(X, y)
 
 
@@ -771,13 +784,13 @@ def test_linearly_dependent_responses_name_the_remedy():
 # ------------------------------------------------------------ ill-conditioning
 def test_nugget_escalation_sequence_is_bounded():
     sequence, nugget = [], 1e-10
-    while (nugget := _next_nugget(nugget)) is not None:
+    while (nugget := next_nugget(nugget)) is not None:
         sequence.append(nugget)
     np.testing.assert_allclose(sequence, [1e-9, 1e-8, 1e-7, 1e-6])
-    assert _next_nugget(0.0) == 1e-12
-    assert _next_nugget(5e-7) == 1e-6
-    assert _next_nugget(1e-6) is None
-    assert _next_nugget(1e-3) is None  # a large user nugget is used as given
+    assert next_nugget(0.0) == 1e-12
+    assert next_nugget(5e-7) == 1e-6
+    assert next_nugget(1e-6) is None
+    assert next_nugget(1e-3) is None  # a large user nugget is used as given
 
 
 def smooth_1d(n=15, seed=1):
@@ -795,24 +808,54 @@ def test_search_stopped_by_failed_factorisations_escalates_the_nugget():
     gp = MultiResponseGP(Gauss(roughness=100.0), alpha=0.0)
     with pytest.warns(UserWarning, match="search was stopped by failed Cholesky"):
         gp.fit(X, Y)
-    assert gp.alpha_ == 1e-12
+    assert gp.nugget_ == 1e-12
     assert 0.3 < gp.kernel_.roughness < 3.0  # moved from the start (100)
     X_test = np.linspace(0, 1, 50).reshape(-1, 1)
     Y_test = np.column_stack([np.sin(3 * X_test[:, 0]), np.exp(X_test[:, 0])])
     assert r2_score(Y_test, gp.predict(X_test)) > 0.999
-    # the fitted state, the likelihood and predictions all use alpha_
+    # the fitted state, the likelihood and predictions all use nugget_
     assert gp.log_marginal_likelihood(gp.kernel_.theta) == pytest.approx(
         gp.log_marginal_likelihood_value_, rel=1e-10
     )
 
 
 def test_search_still_stopped_at_the_maximum_nugget_warns(monkeypatch):
-    monkeypatch.setattr(skmba._gp, "_MAX_ALPHA", 0.0)
+    monkeypatch.setattr(skmba._gp_search, "_MAX_ALPHA", 0.0)
     X, Y = smooth_1d()
     gp = MultiResponseGP(Gauss(roughness=100.0), alpha=0.0)
-    with pytest.warns(ConvergenceWarning, match="still stopped by a numerically"):
+    with pytest.warns(ConvergenceWarning, match="still stopped by a numerically") as w:
         gp.fit(X, Y)
-    assert gp.alpha_ == 0.0
+    assert gp.nugget_ == 0.0
+    # warnings from deep in the search point at the caller of fit
+    assert {record.filename for record in w} == {__file__}
+
+
+class _Unconverged:
+    """scipy.optimize stand-in whose L-BFGS-B runs all end unconverged."""
+
+    @staticmethod
+    def minimize(*args, bounds, **kwargs):
+        res = minimize(*args, bounds=bounds, **kwargs)
+        middle = np.mean(bounds, axis=1)
+        res.success, res.message = False, "ABNORMAL (test)"
+        res.jac = np.where(res.x <= middle, -1.0, 1.0) * 1e3  # not flat
+        return res
+
+
+@pytest.mark.parametrize("noise", [False, True])
+def test_search_warnings_point_at_the_caller_of_fit(noise, monkeypatch):
+    X, Y = smooth_1d()
+    if not noise:
+        with pytest.warns(UserWarning, match="so the nugget was raised to") as w:
+            MultiResponseGP(Gauss(roughness=100.0), alpha=0.0).fit(X, Y)
+        assert {record.filename for record in w} == {__file__}
+    monkeypatch.setattr(skmba._gp_search, "optimize", _Unconverged)
+    gp = MultiResponseGP(Gauss(roughness=1.0), noise=noise)
+    with pytest.warns(ConvergenceWarning, match=r"ABNORMAL \(test\)") as w:
+        gp.fit(X, Y)
+    # noise=True: stage 1 (concentrated) and stage 2 (profile likelihood)
+    assert len(w) == 1 + noise
+    assert {record.filename for record in w} == {__file__}
 
 
 def cantilever_split(n_train, n_test=300, **kwargs):
@@ -838,7 +881,7 @@ def test_thousand_cantilever_simulations_are_emulated():
         warnings.simplefilter("always")
         gp = MultiResponseGP().fit(Z, Y)
     assert not [w for w in caught if "numerically singular" in str(w.message)]
-    assert gp.alpha_ == 1e-10
+    assert gp.nugget_ == 1e-10
     mean, std = gp.predict(Z_test, return_std=True)
     r2 = r2_score(Y_test, mean, multioutput="raw_values")
     assert np.all(r2 > 0.999), r2
@@ -852,11 +895,11 @@ def test_thousand_simulations_without_nugget_escalate_it():
     # be factored at the start; the nugget is escalated with one warning.
     Z, Y, Z_test, Y_test = cantilever_split(1000)
     gp = MultiResponseGP(alpha=0.0)
-    with pytest.warns(UserWarning, match=r"raised to alpha_=1e-12") as caught:
+    with pytest.warns(UserWarning, match=r"raised to nugget_=1e-12") as caught:
         gp.fit(Z, Y)
     escalations = [w for w in caught if "numerically singular" in str(w.message)]
     assert len(escalations) == 1
-    assert gp.alpha_ == 1e-12
+    assert gp.nugget_ == 1e-12
     r2 = r2_score(Y_test, gp.predict(Z_test), multioutput="raw_values")
     assert np.all(r2 > 0.999), r2
 
@@ -918,7 +961,7 @@ def test_fitted_gp_survives_pickle_and_joblib(noise, tmp_path):
         pickle.loads(pickle.dumps(gp)),
         joblib.load(tmp_path / "gp.joblib"),
     ):
-        assert restored.alpha_ == gp.alpha_
+        assert restored.nugget_ == gp.nugget_
         assert repr(restored.kernel_) == repr(gp.kernel_)
         for got, want in zip(_gp_outputs(restored, X_new), expected, strict=True):
             np.testing.assert_array_equal(got, want)

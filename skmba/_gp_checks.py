@@ -1,0 +1,163 @@
+"""Checks of the training data of :class:`skmba.MultiResponseGP`.
+
+Each refuses, with a ``ValueError`` that names the fix, data that sklearn's
+own checks let through but that no Gaussian process can be fitted to: values
+whose squares overflow float64, too few samples for the regression terms or
+for the response covariance, identical inputs, regression terms that the
+inputs cannot identify and, without noise, duplicated inputs with different
+responses.
+
+Examples
+--------
+>>> from skmba._gp_checks import check_sample_size
+>>> check_sample_size(n=3, d=1, p=2, regression="linear")
+>>> check_sample_size(n=2, d=1, p=2, regression="linear")
+Traceback (most recent call last):
+...
+ValueError: n_samples=2 is too few for regression='linear' ... 3 samples are needed...
+"""
+
+import warnings
+
+import numpy as np
+
+# Inputs and responses beyond this magnitude overflow float64 when squared.
+_MAX_MAGNITUDE = 1e150
+
+
+def check_magnitudes(X, Y):
+    """Refuse values whose squares overflow or underflow float64."""
+    for name, A, remedy in (
+        (
+            "X",
+            X,
+            "Rescale the inputs, e.g. with sklearn.preprocessing.StandardScaler "
+            "in a Pipeline.",
+        ),
+        (
+            "y",
+            Y,
+            "Express the responses in other units (divide y by a constant); "
+            "sigma2_ is in squared units of y.",
+        ),
+    ):
+        peak = float(np.max(np.abs(A))) if A.size else 0.0
+        if peak > _MAX_MAGNITUDE:
+            raise ValueError(
+                f"{name} has values up to {peak:.3g} in magnitude, beyond "
+                f"{_MAX_MAGNITUDE:.0e}: their squares overflow float64. {remedy}"
+            )
+    for name, A, effect, remedy in (
+        (
+            "X column(s)",
+            X,
+            "the kernel roughness for them overflows float64",
+            "Rescale the inputs, e.g. with sklearn.preprocessing.StandardScaler "
+            "in a Pipeline, or drop the columns.",
+        ),
+        (
+            "Response(s)",
+            Y,
+            "their variances underflow float64",
+            "Express the responses in other units (multiply y by a constant).",
+        ),
+    ):
+        span = np.ptp(A, axis=0)
+        tiny = (span > 0) & (span < 1.0 / _MAX_MAGNITUDE)
+        if np.any(tiny):
+            raise ValueError(
+                f"{name} {np.flatnonzero(tiny).tolist()} vary by less than "
+                f"{1.0 / _MAX_MAGNITUDE:.0e} (range {span[tiny].min():.3g}): "
+                f"{effect}. {remedy}"
+            )
+
+
+def check_regression_rank(X, H, regression):
+    """ValueError naming the cause when the regression terms are not identifiable."""
+    p = H.shape[1]
+    scaled = H / np.maximum(np.abs(H).max(axis=0), np.finfo(float).tiny)
+    singular = np.linalg.svd(scaled, compute_uv=False)
+    rank = int(np.sum(singular > 1e-10 * singular[0]))
+    if rank == p:
+        return
+    constant = np.flatnonzero(np.ptp(X, axis=0) == 0)
+    if regression != "constant" and constant.size:
+        cause = (
+            f"X column(s) {constant.tolist()} are constant, so their "
+            f"{regression} terms duplicate the intercept"
+        )
+    else:
+        n_distinct = len(np.unique(X, axis=0))
+        cause = (
+            f"its {p} terms have rank {rank} on these inputs ({n_distinct} "
+            "distinct rows of X; collinear columns also cause this)"
+        )
+    raise ValueError(
+        f"regression={regression!r} cannot be estimated: {cause}. Use a "
+        "lower-order regression ('constant' needs only distinct inputs), drop "
+        "constant or collinear columns of X, or add distinct input points."
+    )
+
+
+def check_rows(X, Y, H, regression, noise):
+    """Identical rows, unidentifiable regression, noise-free duplicates.
+
+    Duplicated rows with equal ``y`` only warn; the warning points at the
+    caller of ``MultiResponseGP.fit`` (called from its ``_fit``).
+    """
+    n = len(X)
+    _, first, inverse = np.unique(X, axis=0, return_index=True, return_inverse=True)
+    if len(first) == 1:
+        raise ValueError(
+            f"All {n} rows of X are identical: the GP cannot learn how the "
+            "responses vary with the inputs. Provide at least 2 distinct "
+            "input points."
+        )
+    check_regression_rank(X, H, regression)
+    if noise or len(first) == n:
+        return
+    source = first[np.reshape(inverse, -1)]  # first occurrence of each row
+    dup = np.flatnonzero(source != np.arange(n))
+    tol = 1e-8 * np.ptp(Y, axis=0)
+    differ = np.any(np.abs(Y[dup] - Y[source[dup]]) > tol, axis=1)
+    if np.any(differ):
+        i = dup[np.argmax(differ)]
+        raise ValueError(
+            f"X has {int(differ.sum())} duplicated row(s) with different y "
+            f"(e.g. rows {source[i]} and {i}): a noise-free GP "
+            "interpolates and cannot pass through both. Fit with "
+            "noise=True (measurements, stochastic simulators), or average "
+            "the duplicated runs."
+        )
+    warnings.warn(
+        f"X has {dup.size} duplicated row(s) (e.g. rows {source[dup[0]]} and "
+        f"{dup[0]}) with equal y: they add no information to a noise-free "
+        "GP and make the correlation matrix singular up to the nugget "
+        "alpha. Remove them to save time.",
+        UserWarning,
+        stacklevel=4,
+    )
+
+
+def check_sample_size(n, d, p, regression):
+    """More samples ``n`` than regression terms ``p`` (``d`` features)."""
+    if n <= p:
+        raise ValueError(
+            f"n_samples={n} is too few for regression={regression!r} "
+            f"with {d} features: at least {p + 1} samples are needed "
+            f"(p={p} regression terms). Add samples or use a lower-order "
+            "regression."
+        )
+
+
+def check_covariance_size(n, q, p, regression):
+    """Enough samples for the ``q x q`` Sigma2 of a noise-free fit without ridge."""
+    if q > n - p:
+        raise ValueError(
+            f"n_samples={n} is too few to estimate the {q} x {q} response "
+            "covariance sigma2_ of a noise-free fit with "
+            f"regression={regression!r} (p={p} terms): it needs "
+            f"n_samples >= p + q = {p + q}. Add samples, set "
+            "response_nugget (e.g. 1e-8), fit fewer responses at once, or "
+            "use noise=True."
+        )
