@@ -1,48 +1,64 @@
-"""Markov chain Monte Carlo for any log-density, with convergence diagnostics.
+"""Random-walk Metropolis-Hastings chains for any log-density.
 
 This module knows nothing about Gaussian processes: it samples a function
 ``log_density(theta) -> float`` of a 1-D parameter vector.
+:func:`run_chains` runs several chains in parallel (:class:`joblib.Parallel`
+over chains); the draws are bit-identical for any ``n_jobs``. The
+convergence diagnostics of the draws are in :mod:`skmba._diagnostics`.
 
-* :func:`run_chains` runs several random-walk Metropolis-Hastings chains in
-  parallel (:class:`joblib.Parallel` over chains). During burn-in the Gaussian
-  proposal adapts (Haario et al. 2001 covariance adaptation plus a
-  Robbins-Monro global scale tuned towards the optimal acceptance rate); it is
-  frozen at the end of burn-in, so the kept draws come from a Markov chain
-  with a fixed kernel. The draws are bit-identical for any ``n_jobs``.
-* :func:`split_rhat`, :func:`ess_bulk` and :func:`rank_normalize` are the
-  rank-normalised split-R-hat and bulk effective sample size of Vehtari,
-  Gelman, Simpson, Carpenter & Bürkner (2021), "Rank-normalization, folding,
-  and localization: an improved R-hat for assessing convergence of MCMC",
-  *Bayesian Analysis* 16(2), 667-718.
-* :func:`check_diagnostics` warns when a run has not converged and says what
-  to change.
+Each chain proposes ``theta + sqrt(lambda) L z`` with ``z`` standard normal
+and ``L L' = C``, and accepts with probability
+``min(1, p(proposal) / p(theta))``. With ``adapt=True``, during burn-in only:
+
+* the scale factor ``lambda`` (initially 1) follows the Robbins-Monro
+  recursion ``log lambda += (t + 1)^-0.5 (alpha_t - alpha*)``, where
+  ``alpha_t`` is the acceptance probability of step ``t`` and ``alpha*`` is
+  0.234 (0.44 when r = 1);
+* every 50 steps from step 100 on, the covariance becomes
+  ``C = (2.38^2 / r) (S + 1e-10 I)`` (Haario, Saksman & Tamminen 2001),
+  where ``S`` is the empirical covariance of the burn-in draws of the latest
+  half of the burn-in so far (earlier draws, still in transit from the
+  start, are forgotten). ``C`` is only updated when that window holds at
+  least ``max(10, 2 r)`` accepted moves.
+
+Both are frozen at the end of burn-in: the kept draws come from a Markov
+chain with a fixed kernel, whose covariance ``lambda C`` is returned in
+:attr:`ChainResult.proposal_cov`.
 
 Examples
 --------
 >>> import numpy as np
 >>> from skmba._sampling import run_chains
+>>> scales = np.array([10.0, 0.1])
 >>> def log_density(theta):
-...     return -0.5 * float(theta @ theta)
->>> result = run_chains(log_density, np.zeros((2, 2)), n_samples=500,
-...                     burn_in=200, random_state=0)
->>> result.samples.shape
-(2, 500, 2)
->>> result.pooled.shape
-(1000, 2)
->>> bool(np.all(np.abs(result.pooled.mean(axis=0)) < 0.5))
+...     return -0.5 * float(np.sum((theta / scales) ** 2))
+>>> starts = np.random.default_rng(0).normal(size=(4, 2)) * scales
+>>> result = run_chains(log_density, starts, n_samples=2000, burn_in=1000,
+...                     random_state=0)
+>>> result.samples.shape, result.pooled.shape
+((4, 2000, 2), (8000, 2))
+>>> np.round(result.pooled.std(axis=0) / scales, 1)
+array([1., 1.])
+>>> bool(np.all((result.acceptance_rate > 0.15)
+...             & (result.acceptance_rate < 0.5)))
 True
 """
 
 import math
 import time
-import warnings
 from dataclasses import dataclass
 from numbers import Integral
 
 import numpy as np
 from joblib import Parallel, delayed
-from scipy import fft, linalg, stats
+from scipy import linalg
 from threadpoolctl import threadpool_limits
+
+# re-exported until callers import from skmba._diagnostics
+# (split_rhat, imported below for ChainResult, is also imported from here)
+from skmba._diagnostics import check_diagnostics as check_diagnostics
+from skmba._diagnostics import ess_bulk, split_rhat
+from skmba._validation import check_count
 
 # Optimal scaling of a random-walk proposal for a Gaussian target in r
 # dimensions (Gelman, Roberts & Gilks 1996): proposal covariance
@@ -135,26 +151,8 @@ def run_chains(
 ):
     """Run adaptive random-walk Metropolis-Hastings chains in parallel.
 
-    Each chain proposes ``theta + sqrt(lambda) L z`` with ``z`` standard
-    normal and ``L L' = C`` and accepts with probability
-    ``min(1, p(proposal) / p(theta))``.
-
-    With ``adapt=True``, during burn-in only:
-
-    * the scale factor ``lambda`` (initially 1) follows the Robbins-Monro
-      recursion ``log lambda += (t + 1)^-0.5 (alpha_t - alpha*)``, where
-      ``alpha_t`` is the acceptance probability of step ``t`` and ``alpha*``
-      is 0.234 (0.44 when r = 1);
-    * every 50 steps from step 100 on, the covariance becomes
-      ``C = (2.38^2 / r) (S + 1e-10 I)`` (Haario, Saksman & Tamminen 2001),
-      where ``S`` is the empirical covariance of the burn-in draws of the
-      latest half of the burn-in so far (earlier draws, still in transit from
-      the start, are forgotten). ``C`` is only updated when that window holds
-      at least ``max(10, 2 r)`` accepted moves.
-
-    Both are frozen at the end of burn-in: the kept draws come from a Markov
-    chain with a fixed kernel, whose covariance ``lambda C`` is returned in
-    ``proposal_cov``.
+    The proposal, its adaptation during burn-in and its freezing afterwards
+    are described in the module docstring (:mod:`skmba._sampling`).
 
     Parameters
     ----------
@@ -212,19 +210,61 @@ def run_chains(
     Examples
     --------
     >>> import numpy as np
-    >>> from skmba._sampling import run_chains
-    >>> scales = np.array([10.0, 0.1])
-    >>> def log_density(theta):
-    ...     return -0.5 * float(np.sum((theta / scales) ** 2))
-    >>> starts = np.random.default_rng(0).normal(size=(4, 2)) * scales
-    >>> result = run_chains(log_density, starts, n_samples=2000, burn_in=1000,
-    ...                     random_state=0)
-    >>> np.round(result.pooled.std(axis=0) / scales, 1)
-    array([1., 1.])
-    >>> bool(np.all((result.acceptance_rate > 0.15)
-    ...             & (result.acceptance_rate < 0.5)))
-    True
+    >>> result = run_chains(lambda t: -0.5 * float(t @ t), np.zeros((2, 2)),
+    ...                     n_samples=500, burn_in=200, random_state=0)
+    >>> result.samples.shape, result.proposal_cov.shape
+    ((2, 500, 2), (2, 2, 2))
     """
+    starts = _check_starts(starts)
+    n_chains, r = starts.shape
+    densities = _per_chain(log_density, n_chains)
+    n_samples = check_count(n_samples, "n_samples")
+    burn_in = check_count(burn_in, "burn_in", minimum=0)
+    chols = _proposal_chols(proposal_cov, n_chains, r)
+    start_values = _start_values(densities, starts)
+    seeds = np.random.SeedSequence(_entropy(random_state)).spawn(n_chains)
+    return _run_parallel(
+        zip(densities, starts, start_values, chols, seeds, strict=True),
+        n_samples=n_samples,
+        burn_in=burn_in,
+        adapt=bool(adapt),
+        n_jobs=n_jobs,
+        verbose=verbose,
+    )
+
+
+def _run_parallel(chains, *, n_samples, burn_in, adapt, n_jobs, verbose):
+    """Run each chain's ``(log_density, start, start_value, chol, seed)``.
+
+    The chains are run by :class:`joblib.Parallel` and their outputs stacked
+    into a :class:`ChainResult`.
+    """
+    outputs = Parallel(n_jobs=n_jobs, verbose=verbose)(
+        delayed(_run_chain)(
+            density,
+            start,
+            start_value,
+            chol,
+            n_samples=n_samples,
+            burn_in=burn_in,
+            adapt=adapt,
+            seed=seed,
+            chain=c,
+            verbose=verbose,
+        )
+        for c, (density, start, start_value, chol, seed) in enumerate(chains)
+    )
+    samples, values, acceptance, covs = zip(*outputs, strict=True)
+    return ChainResult(
+        samples=np.stack(samples),
+        log_density=np.stack(values),
+        acceptance_rate=np.array(acceptance),
+        proposal_cov=np.stack(covs),
+    )
+
+
+def _check_starts(starts):
+    """``starts`` as a finite float array of shape (n_chains, r)."""
     starts = np.array(starts, dtype=float)
     if starts.ndim != 2 or starts.shape[0] < 1 or starts.shape[1] < 1:
         raise ValueError(
@@ -234,11 +274,11 @@ def run_chains(
         )
     if not np.all(np.isfinite(starts)):
         raise ValueError("starts must be finite")
-    n_chains, r = starts.shape
-    densities = _per_chain(log_density, n_chains)
-    n_samples = _check_count(n_samples, "n_samples", minimum=1)
-    burn_in = _check_count(burn_in, "burn_in", minimum=0)
+    return starts
 
+
+def _proposal_chols(proposal_cov, n_chains, r):
+    """Lower Cholesky factor of each chain's initial proposal covariance."""
     if proposal_cov is None:
         proposal_cov = np.broadcast_to(_OPTIMAL_SCALE / r * np.eye(r), (n_chains, r, r))
     else:
@@ -259,9 +299,13 @@ def run_chains(
             chols.append(linalg.cholesky(cov, lower=True))
         except linalg.LinAlgError:
             raise ValueError("proposal_cov must be positive definite") from None
+    return chols
 
+
+def _start_values(densities, starts):
+    """The log-density at each start, which must not be ``-inf``."""
     start_values = []
-    for c in range(n_chains):
+    for c in range(len(starts)):
         value = _evaluate(densities[c], starts[c].copy(), c)
         if value == -np.inf:
             raise ValueError(
@@ -269,30 +313,7 @@ def run_chains(
                 "row of starts must lie inside the support of the target"
             )
         start_values.append(value)
-
-    seeds = np.random.SeedSequence(_entropy(random_state)).spawn(n_chains)
-    outputs = Parallel(n_jobs=n_jobs, verbose=verbose)(
-        delayed(_run_chain)(
-            densities[c],
-            starts[c],
-            start_values[c],
-            chols[c],
-            n_samples=n_samples,
-            burn_in=burn_in,
-            adapt=bool(adapt),
-            seed=seeds[c],
-            chain=c,
-            verbose=verbose,
-        )
-        for c in range(n_chains)
-    )
-    samples, values, acceptance, covs = zip(*outputs, strict=True)
-    return ChainResult(
-        samples=np.stack(samples),
-        log_density=np.stack(values),
-        acceptance_rate=np.array(acceptance),
-        proposal_cov=np.stack(covs),
-    )
+    return start_values
 
 
 def _per_chain(log_density, n_chains):
@@ -312,12 +333,6 @@ def _per_chain(log_density, n_chains):
             f"(one per row of starts), got {len(densities)} entries"
         )
     return densities
-
-
-def _check_count(value, name, *, minimum):
-    if isinstance(value, bool) or not isinstance(value, Integral) or value < minimum:
-        raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
-    return int(value)
 
 
 def _entropy(random_state):
@@ -388,16 +403,56 @@ def _run_chain_body(
     chain,
     verbose,
 ):
+    """Burn-in (:func:`_burn_in`), then draws with the frozen kernel."""
     started = time.perf_counter()
     rng = np.random.default_rng(seed)
-    r = start.size
-    theta = start.copy()
-    logp = start_value
+    theta, logp, chol, log_scale = _burn_in(
+        log_density,
+        start.copy(),
+        start_value,
+        chol,
+        rng,
+        burn_in=burn_in,
+        adapt=adapt,
+        chain=chain,
+    )
+    if verbose >= 2:
+        print(
+            f"chain {chain}: burn-in of {burn_in} steps done in "
+            f"{time.perf_counter() - started:.1f} s, scale factor "
+            f"{math.exp(log_scale):.3g}",
+            flush=True,
+        )
+    chol = math.exp(0.5 * log_scale) * chol
+    samples, values, n_accept = _fixed_kernel_draws(
+        log_density,
+        theta,
+        logp,
+        chol,
+        rng,
+        n_samples=n_samples,
+        chain=chain,
+        started=started if verbose >= 2 else None,
+    )
+    acceptance = n_accept / n_samples
+    if verbose >= 2:
+        print(
+            f"chain {chain}: {n_samples} draws done in "
+            f"{time.perf_counter() - started:.1f} s, acceptance {acceptance:.3f}",
+            flush=True,
+        )
+    return samples, values, acceptance, chol @ chol.T
+
+
+def _burn_in(log_density, theta, logp, chol, rng, *, burn_in, adapt, chain):
+    """``burn_in`` steps in blocks of ``_ADAPT_INTERVAL`` with a fixed shape L.
+
+    Returns the last state ``theta`` and its ``logp``, the adapted Cholesky
+    factor and the adapted log scale factor.
+    """
+    r = theta.size
     target = _TARGET_ACCEPTANCE_1D if r == 1 else _TARGET_ACCEPTANCE
     log_scale = 0.0
-    exp = math.exp
-
-    # Burn-in, in blocks of _ADAPT_INTERVAL steps with a fixed shape L.
     n_blocks = -(-burn_in // _ADAPT_INTERVAL)
     counts = np.zeros(n_blocks)
     means = np.zeros((n_blocks, r))
@@ -408,21 +463,18 @@ def _run_chain_body(
         m = min(_ADAPT_INTERVAL, burn_in - step)
         increments = rng.standard_normal((m, r)) @ chol.T
         log_u = np.log(rng.random(m))
-        block = np.empty((m, r))
-        n_accept = 0
-        for i in range(m):
-            proposal = theta + exp(0.5 * log_scale) * increments[i]
-            value = _evaluate(log_density, proposal, chain)
-            diff = value - logp
-            if log_u[i] < diff:
-                theta = proposal
-                logp = value
-                n_accept += 1
-            if adapt:
-                alpha = 1.0 if diff >= 0.0 else exp(diff)
-                log_scale += (step + 1) ** -_GAIN_EXPONENT * (alpha - target)
-            block[i] = theta
-            step += 1
+        block, theta, logp, log_scale, n_accept = _burn_in_block(
+            log_density,
+            theta,
+            logp,
+            increments,
+            log_u,
+            log_scale,
+            step=step,
+            target=target if adapt else None,
+            chain=chain,
+        )
+        step += m
         counts[b] = m
         means[b] = block.mean(axis=0)
         dev = block - means[b]
@@ -430,26 +482,71 @@ def _run_chain_body(
         accepts[b] = n_accept
         if adapt and step >= 2 * _ADAPT_INTERVAL and step < burn_in:
             first = (b + 1) // 2
-            if accepts[first : b + 1].sum() >= max(10, 2 * r):
-                n, _, m2 = _merge_moments(
-                    counts[first : b + 1], means[first : b + 1], m2s[first : b + 1]
-                )
-                cov = _OPTIMAL_SCALE / r * (m2 / (n - 1) + _EPSILON * np.eye(r))
-                try:
-                    chol = linalg.cholesky(cov, lower=True, check_finite=False)
-                except linalg.LinAlgError:
-                    pass  # keep the previous shape
+            window = slice(first, b + 1)
+            chol = _adapted_chol(
+                chol, counts[window], means[window], m2s[window], accepts[window]
+            )
+    return theta, logp, chol, log_scale
 
-    # Fixed kernel after burn-in.
-    if verbose >= 2:
-        print(
-            f"chain {chain}: burn-in of {burn_in} steps done in "
-            f"{time.perf_counter() - started:.1f} s, scale factor "
-            f"{exp(log_scale):.3g}",
-            flush=True,
-        )
-    chol = exp(0.5 * log_scale) * chol
-    quarters = {(k * n_samples) // 4 for k in range(1, 4)} - {0}
+
+def _burn_in_block(
+    log_density, theta, logp, increments, log_u, log_scale, *, step, target, chain
+):
+    """One block of burn-in steps from burn-in step ``step`` on.
+
+    ``target`` is the acceptance rate towards which the log scale factor is
+    tuned, or None not to adapt it. Returns the block's states, the last
+    state and its ``logp``, the log scale factor and the number of accepted
+    moves.
+    """
+    m, r = increments.shape
+    block = np.empty((m, r))
+    n_accept = 0
+    for i in range(m):
+        proposal = theta + math.exp(0.5 * log_scale) * increments[i]
+        value = _evaluate(log_density, proposal, chain)
+        diff = value - logp
+        if log_u[i] < diff:
+            theta = proposal
+            logp = value
+            n_accept += 1
+        if target is not None:
+            alpha = 1.0 if diff >= 0.0 else math.exp(diff)
+            log_scale += (step + i + 1) ** -_GAIN_EXPONENT * (alpha - target)
+        block[i] = theta
+    return block, theta, logp, log_scale, n_accept
+
+
+def _adapted_chol(chol, counts, means, m2s, accepts):
+    """Haario covariance of the window of blocks, or ``chol`` kept as is.
+
+    ``chol`` is kept when the window holds too few accepted moves or its
+    covariance is not positive definite.
+    """
+    r = means.shape[1]
+    if accepts.sum() < max(10, 2 * r):
+        return chol
+    n, _, m2 = _merge_moments(counts, means, m2s)
+    cov = _OPTIMAL_SCALE / r * (m2 / (n - 1) + _EPSILON * np.eye(r))
+    try:
+        return linalg.cholesky(cov, lower=True, check_finite=False)
+    except linalg.LinAlgError:
+        return chol  # keep the previous shape
+
+
+def _fixed_kernel_draws(
+    log_density, theta, logp, chol, rng, *, n_samples, chain, started
+):
+    """``n_samples`` steps with the frozen proposal factor ``chol``.
+
+    Random numbers are drawn in blocks of ``_BLOCK`` steps. With ``started``
+    (a :func:`time.perf_counter` value) progress is printed every quarter.
+    Returns the draws, their log-densities and the number of accepted moves.
+    """
+    r = theta.size
+    quarters = set()
+    if started is not None:
+        quarters = {(k * n_samples) // 4 for k in range(1, 4)} - {0}
     samples = np.empty((n_samples, r))
     values = np.empty(n_samples)
     n_accept = 0
@@ -468,279 +565,10 @@ def _run_chain_body(
             samples[step] = theta
             values[step] = logp
             step += 1
-            if verbose >= 2 and step in quarters:
+            if step in quarters:
                 print(
                     f"chain {chain}: {step}/{n_samples} draws "
                     f"({time.perf_counter() - started:.1f} s)",
                     flush=True,
                 )
-    acceptance = n_accept / n_samples
-    if verbose >= 2:
-        print(
-            f"chain {chain}: {n_samples} draws done in "
-            f"{time.perf_counter() - started:.1f} s, acceptance {acceptance:.3f}",
-            flush=True,
-        )
-    return samples, values, acceptance, chol @ chol.T
-
-
-# ---------------------------------------------------------------------------
-# Diagnostics (Vehtari et al. 2021)
-
-
-def rank_normalize(x):
-    """Rank-normalise draws: normal scores of their pooled ranks.
-
-    All ``S`` values of ``x`` are ranked together (average ranks for ties,
-    :func:`scipy.stats.rankdata`) and mapped to
-    ``Phi^-1((rank - 3/8) / (S + 1/4))`` (Blom's normal scores).
-
-    Parameters
-    ----------
-    x : array_like
-        Draws, of any shape (typically (n_chains, n_draws)).
-
-    Returns
-    -------
-    z : ndarray of the shape of ``x``
-
-    Examples
-    --------
-    >>> from skmba._sampling import rank_normalize
-    >>> z = rank_normalize([[1.0, 5.0], [2.0, 2.0]])
-    >>> z.shape
-    (2, 2)
-    >>> bool(z[1, 0] == z[1, 1]), bool(z[0, 0] < z[1, 0] < z[0, 1])
-    (True, True)
-    """
-    x = np.asarray(x, dtype=float)
-    ranks = stats.rankdata(x, method="average", axis=None).reshape(x.shape)
-    return stats.norm.ppf((ranks - 0.375) / (x.size + 0.25))
-
-
-def _as_chains(chains):
-    chains = np.asarray(chains, dtype=float)
-    if chains.ndim == 1:
-        chains = chains[np.newaxis]
-    if chains.ndim != 2:
-        raise ValueError(
-            f"chains must have shape (n_chains, n_draws), got {chains.shape}"
-        )
-    return chains
-
-
-def _split(chains):
-    """Halve each chain (dropping the middle draw of an odd-length chain)."""
-    half = chains.shape[1] // 2
-    return np.concatenate([chains[:, :half], chains[:, chains.shape[1] - half :]])
-
-
-def _rhat(chains):
-    """Potential scale reduction of chains (n_chains, n) (Gelman et al. BDA3)."""
-    n = chains.shape[1]
-    within = chains.var(axis=1, ddof=1).mean()
-    between = n * chains.mean(axis=1).var(ddof=1)
-    if within == 0.0:
-        return math.inf if between > 0.0 else math.nan
-    return math.sqrt(((n - 1) / n * within + between / n) / within)
-
-
-def _rhat_bulk(chains):
-    """R-hat of the rank-normalised split chains."""
-    return _rhat(rank_normalize(_split(chains)))
-
-
-def _rhat_folded(chains):
-    """R-hat of the rank-normalised split chains folded about the median."""
-    split = _split(chains)
-    return _rhat(rank_normalize(np.abs(split - np.median(split))))
-
-
-def _usable(chains):
-    return chains.shape[1] >= 4 and np.all(np.isfinite(chains)) and np.ptp(chains) > 0
-
-
-def split_rhat(chains):
-    """Rank-normalised split-R-hat of one parameter.
-
-    Each chain is split into halves (the middle draw of an odd-length chain
-    is dropped), so that a trend within a chain shows as a disagreement
-    between halves. Two potential scale reduction factors
-    ``sqrt(var_plus / W)`` are computed on the split chains, with ``W`` the
-    mean within-chain variance and ``var_plus = (n-1)/n W + B/n`` (``B/n``
-    the variance of the chain means): the *bulk* R-hat of the rank-normalised
-    draws (:func:`rank_normalize`), which detects chains with different
-    locations, and the *folded* R-hat of the rank-normalised absolute
-    deviations from the median of all draws, which detects chains with
-    different scales. Following Vehtari et al. (2021), the larger of the two
-    is returned; values above 1.01 indicate that the chains have not mixed.
-
-    Parameters
-    ----------
-    chains : array_like of shape (n_chains, n_draws)
-        Draws of one parameter (a 1-D array is a single chain).
-
-    Returns
-    -------
-    rhat : float
-        NaN when there are fewer than 4 draws per chain, non-finite draws or
-        all draws are equal; ``inf`` when every split chain is constant but
-        they differ.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from skmba._sampling import split_rhat
-    >>> rng = np.random.default_rng(0)
-    >>> draws = rng.normal(size=(4, 1000))
-    >>> bool(split_rhat(draws) < 1.01)
-    True
-    >>> draws[0] += 2.0
-    >>> bool(split_rhat(draws) > 1.1)
-    True
-    """
-    chains = _as_chains(chains)
-    if not _usable(chains):
-        return math.nan
-    return max(_rhat_bulk(chains), _rhat_folded(chains))
-
-
-def _autocovariance(chains):
-    """Biased autocovariances of each chain at lags 0 to n-1, by FFT."""
-    n = chains.shape[1]
-    centred = chains - chains.mean(axis=1, keepdims=True)
-    size = fft.next_fast_len(2 * n)
-    spectrum = fft.rfft(centred, n=size, axis=1)
-    return fft.irfft(spectrum * spectrum.conj(), n=size, axis=1)[:, :n] / n
-
-
-def _ess(chains):
-    """Effective sample size of chains (n_chains, n) with Geyer's estimator."""
-    m, n = chains.shape
-    acov = _autocovariance(chains)
-    within = acov[:, 0].mean() * n / (n - 1)
-    var_plus = within * (n - 1) / n
-    if m > 1:
-        var_plus += chains.mean(axis=1).var(ddof=1)
-    rho = 1.0 - (within - acov.mean(axis=0)) / var_plus
-    rho[0] = 1.0
-    # Geyer's initial monotone sequence: sums of adjacent pairs of
-    # autocorrelations, truncated before the first negative one and made
-    # non-increasing.
-    n_pairs = n // 2
-    pairs = rho[0 : 2 * n_pairs : 2] + rho[1 : 2 * n_pairs : 2]
-    negative = np.flatnonzero(pairs < 0.0)
-    if negative.size:
-        pairs = pairs[: negative[0]]
-    pairs = np.minimum.accumulate(pairs)
-    tau = 2.0 * pairs.sum() - 1.0
-    # As Stan does, bound the ESS by m n log10(m n) for antithetic chains.
-    tau = max(tau, 1.0 / math.log10(m * n))
-    return m * n / tau
-
-
-def ess_bulk(chains):
-    """Bulk effective sample size of one parameter.
-
-    The effective sample size of the rank-normalised (:func:`rank_normalize`)
-    split chains (see :func:`split_rhat`): ``M N / tau`` for ``M`` split chains
-    of ``N`` draws, with the integrated autocorrelation time
-    ``tau = -1 + 2 sum_k P_k``. The autocorrelations combine all chains,
-    ``rho_t = 1 - (W - mean_m acov_m(t)) / var_plus`` (Vehtari et al. 2021,
-    Eq. 10), from autocovariances computed by FFT; ``P_k = rho_2k + rho_2k+1``
-    are summed up to the first negative ``P_k`` and made non-increasing
-    (Geyer's initial monotone sequence estimator). ``tau`` is bounded below by
-    ``1 / log10(M N)``.
-
-    Parameters
-    ----------
-    chains : array_like of shape (n_chains, n_draws)
-        Draws of one parameter (a 1-D array is a single chain).
-
-    Returns
-    -------
-    ess : float
-        NaN when there are fewer than 4 draws per chain, non-finite draws or
-        all draws are equal.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from skmba._sampling import ess_bulk
-    >>> rng = np.random.default_rng(0)
-    >>> bool(3600 < ess_bulk(rng.normal(size=(4, 1000))) < 4400)
-    True
-    >>> walk = np.cumsum(rng.normal(size=(4, 1000)), axis=1)
-    >>> bool(ess_bulk(walk) < 100)
-    True
-    """
-    chains = _as_chains(chains)
-    if not _usable(chains):
-        return math.nan
-    return _ess(rank_normalize(_split(chains)))
-
-
-def check_diagnostics(result, rhat_threshold=1.01, min_ess=400, *, names=None):
-    """Warn when chains have not converged or are too short.
-
-    One :class:`UserWarning` per problem: parameters whose
-    :func:`split_rhat` exceeds ``rhat_threshold`` (or cannot be computed), and
-    parameters whose :func:`ess_bulk` is below ``min_ess``.
-
-    Parameters
-    ----------
-    result : ChainResult
-        Output of :func:`run_chains`.
-    rhat_threshold : float, default=1.01
-        Largest acceptable R-hat.
-    min_ess : float, default=400
-        Smallest acceptable bulk effective sample size.
-    names : sequence of str, default=None
-        Parameter names used in the messages; ``theta[j]`` by default.
-
-    Returns
-    -------
-    messages : list of str
-        The warning messages; empty when all is well.
-
-    Examples
-    --------
-    >>> import warnings
-    >>> import numpy as np
-    >>> from skmba._sampling import check_diagnostics, run_chains
-    >>> result = run_chains(lambda t: -0.5 * float(t @ t), np.zeros((2, 1)),
-    ...                     n_samples=50, burn_in=10, random_state=0)
-    >>> with warnings.catch_warnings(record=True):
-    ...     warnings.simplefilter("always")
-    ...     messages = check_diagnostics(result)
-    >>> any("n_samples" in message for message in messages)
-    True
-    """
-    r = result.samples.shape[-1]
-    if names is None:
-        names = [f"theta[{j}]" for j in range(r)]
-    elif len(names) != r:
-        raise ValueError(f"names must have {r} entries, got {len(names)}")
-    messages = []
-    rhat = result.rhat
-    bad = [j for j in range(r) if not rhat[j] <= rhat_threshold]
-    if bad:
-        listed = ", ".join(f"{names[j]} ({rhat[j]:.3g})" for j in bad)
-        messages.append(
-            f"R-hat above {rhat_threshold} for {listed}: the chains have not "
-            "mixed. Run a longer burn_in and more samples (n_samples), or more "
-            "chains from dispersed starts, and check that the posterior is not "
-            "multimodal."
-        )
-    ess = result.ess
-    bad = [j for j in range(r) if not ess[j] >= min_ess]
-    if bad:
-        listed = ", ".join(f"{names[j]} ({ess[j]:.0f})" for j in bad)
-        messages.append(
-            f"Bulk effective sample size below {min_ess} for {listed}: draw "
-            "more samples (n_samples) or more chains; a longer burn_in lets "
-            "the proposal adapt better."
-        )
-    for message in messages:
-        warnings.warn(message, UserWarning, stacklevel=2)
-    return messages
+    return samples, values, n_accept
