@@ -16,12 +16,10 @@ gives into a :class:`Prior` with that interface:
   ``ppf``), such as a frozen ``scipy.stats.multivariate_t`` or a user
   class: :class:`GenericPrior`.
 
-Every method is vectorised over the rows of ``theta``, of shape ``(m, r)``.
-A 1-D ``theta`` is read as follows, so that the result is always 1-D with
-one entry per point, never a scalar: for ``r > 1`` a vector of length
-``r`` is one point (result of shape ``(1,)``); for ``r = 1`` a vector of
-length ``m`` is ``m`` points (result of shape ``(m,)``) and a scalar is one
-point.
+The interface itself, and how a 1-D ``theta`` is read (one point, or ``m``
+points when ``r = 1``), are those of the base class
+:class:`~skmba._prior_base.Prior`; the checks of what the user gives are in
+:mod:`skmba._prior_checks`.
 
 Examples
 --------
@@ -39,444 +37,30 @@ array([[2.000e+04, 1.000e+05],
 (3, 2)
 """
 
-import math
 import numbers
-import warnings
 
 import numpy as np
-from numpy.polynomial.legendre import leggauss
 from scipy import linalg, stats
-from scipy.stats import qmc
-from sklearn.utils import check_random_state
 
-#: Points of the unit cube are kept in ``[_U_EPS, 1 - _U_EPS]`` before a
-#: quantile function is applied, so that unbounded priors give finite nodes.
-_U_EPS = 1e-12
-
-#: Number of fixed-seed draws behind the bounds, mean and covariance of a
-#: :class:`GenericPrior`, and the seed used for them.
-_N_GENERIC_DRAWS = 20000
-_GENERIC_SEED = 0
-
-_LOG_2PI = math.log(2.0 * math.pi)
-
-_PRIOR_FORMS = (
-    "a list of frozen continuous scipy.stats distributions, one per "
-    "parameter (e.g. [uniform(20e3, 80e3), norm(50e3, 1e4)]), a frozen "
-    "scipy.stats.multivariate_normal(mean, cov), or an object with logpdf "
-    "and rvs methods"
+from skmba._linalg import LOG_2PI
+from skmba._prior_base import FIXED_SEED, N_FIXED_DRAWS, Prior
+from skmba._prior_checks import (
+    PRIOR_FORMS,
+    check_univariate,
+    describe_univariate,
+    is_frozen_univariate,
+    is_multivariate_generator,
 )
+
+__all__ = [
+    "GaussianPrior",
+    "GenericPrior",
+    "IndependentPrior",
+    "Prior",
+    "check_prior",
+]
 
 _MVN_FROZEN = type(stats.multivariate_normal(mean=[0.0]))
-
-_ENTRY_FORM = (
-    "a frozen continuous scipy.stats distribution such as uniform(20e3, 80e3) "
-    "or norm(50e3, 1e4)"
-)
-
-
-def _is_frozen_univariate(obj):
-    """Whether ``obj`` is a frozen ``scipy.stats`` univariate distribution."""
-    return isinstance(
-        getattr(obj, "dist", None), (stats.rv_continuous, stats.rv_discrete)
-    )
-
-
-def _is_multivariate_generator(obj):
-    """Whether ``obj`` is an unfrozen multivariate ``scipy.stats`` object.
-
-    The class is private in scipy, so it is recognised by name.
-    """
-    return any(c.__name__ == "multi_rv_generic" for c in type(obj).__mro__)
-
-
-def _describe_univariate(dist):
-    """``norm(loc=0, scale=1)``-style text for a frozen distribution."""
-    names = []
-    shapes = dist.dist.shapes
-    if shapes:
-        names = [s.strip() for s in shapes.split(",")]
-    names = [*names, "loc", "scale"]
-    parts = [f"{name}={value:g}" for name, value in zip(names, dist.args, strict=False)]
-    parts += [f"{name}={value:g}" for name, value in dist.kwds.items()]
-    return f"{dist.dist.name}({', '.join(parts)})"
-
-
-def _safe_describe(dist):
-    try:
-        return _describe_univariate(dist)
-    except (TypeError, ValueError):
-        return repr(dist)
-
-
-def _check_univariate(dist, where):
-    """Validate one frozen continuous univariate distribution.
-
-    ``where`` names it in messages, e.g. ``"prior"`` or ``"prior[1]"``.
-    """
-    if dist is None:
-        raise TypeError(f"{where} is None; each entry must be {_ENTRY_FORM}.")
-    if isinstance(dist, type):
-        raise TypeError(
-            f"{where} is the class {dist.__name__}, not a distribution; "
-            f"each entry must be {_ENTRY_FORM}."
-        )
-    if isinstance(dist, (stats.rv_continuous, stats.rv_discrete)):
-        name = getattr(dist, "name", type(dist).__name__)
-        raise TypeError(
-            f"{where} is the unfrozen distribution scipy.stats.{name}; freeze "
-            f"it with its parameters, e.g. {name}(loc=..., scale=...) (or "
-            f"{name}() for the default ones)."
-        )
-    if _is_frozen_univariate(dist) and isinstance(dist.dist, stats.rv_discrete):
-        raise TypeError(
-            f"{where} is the discrete distribution {_safe_describe(dist)}; "
-            "calibration parameters are continuous: use a continuous "
-            "distribution such as uniform or norm."
-        )
-    if not _is_frozen_univariate(dist):
-        if not callable(getattr(dist, "logpdf", None)):
-            raise TypeError(
-                f"{where} of type {type(dist).__name__} has no logpdf method; "
-                f"each entry must be {_ENTRY_FORM}."
-            )
-        raise TypeError(
-            f"{where} of type {type(dist).__name__} is not a frozen "
-            f"scipy.stats univariate distribution; each entry must be "
-            f"{_ENTRY_FORM}. For a joint prior of your own, pass a single "
-            "object with logpdf and rvs methods instead of a list."
-        )
-    values = [*dist.args, *dist.kwds.values()]
-    for value in values:
-        try:
-            array = np.asarray(value, dtype=float)
-        except (TypeError, ValueError):
-            raise ValueError(
-                f"{where} has a non-numeric parameter {value!r}; give numbers."
-            ) from None
-        if array.size != 1:
-            raise ValueError(
-                f"{where} has a parameter with {array.size} values; it must "
-                "describe one parameter: use a list with one distribution per "
-                "parameter instead of vector-valued arguments."
-            )
-        if not np.isfinite(array).all():
-            raise ValueError(
-                f"{where}, {_describe_univariate(dist)}, has non-finite "
-                "parameters; give finite loc, scale and shape parameters."
-            )
-    with np.errstate(all="ignore"), warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        q25, q75 = np.asarray(dist.ppf([0.25, 0.75]), dtype=float)
-    if not (np.isfinite(q25) and np.isfinite(q75) and q75 > q25):
-        raise ValueError(
-            f"{where}, {_describe_univariate(dist)}, has zero width or invalid "
-            "parameters (the scale must be > 0 and shape parameters within "
-            "their domain). A parameter known exactly is not calibrated: fix "
-            "it as an input instead, or give its prior a positive width."
-        )
-    return dist
-
-
-def _check_rng(random_state):
-    """A RandomState or Generator from an int, None, RandomState or Generator."""
-    if isinstance(random_state, np.random.Generator):
-        return random_state
-    if isinstance(random_state, bool):
-        raise ValueError(
-            "random_state must be an int, None, a numpy RandomState or a "
-            f"numpy Generator; got {random_state!r}."
-        )
-    return check_random_state(random_state)
-
-
-def _check_count(n, name="n"):
-    if isinstance(n, bool) or not isinstance(n, numbers.Integral) or n < 1:
-        raise ValueError(f"{name} must be a positive integer; got {n!r}.")
-    return int(n)
-
-
-def _check_coverage(coverage):
-    if not (isinstance(coverage, numbers.Real) and 0.0 < coverage < 1.0):
-        raise ValueError(
-            f"coverage must be a probability strictly between 0 and 1; got "
-            f"{coverage!r}."
-        )
-    return float(coverage)
-
-
-def _sobol(d, n, random_state):
-    """``2**ceil(log2(n))`` scrambled Sobol points in ``(0, 1)^d``."""
-    if not (
-        random_state is None
-        or isinstance(random_state, (np.random.RandomState, np.random.Generator))
-        or (isinstance(random_state, numbers.Integral) and random_state >= 0)
-    ) or isinstance(random_state, bool):
-        raise ValueError(
-            "random_state must be a non-negative int, None, a numpy "
-            f"RandomState or a numpy Generator; got {random_state!r}."
-        )
-    if isinstance(random_state, numbers.Integral):
-        random_state = int(random_state)
-    elif isinstance(random_state, np.random.RandomState):
-        # scipy's Sobol cannot spawn from a RandomState: seed a Generator
-        random_state = np.random.default_rng(random_state.randint(2**31))
-    m = max(0, math.ceil(math.log2(n)))
-    try:
-        engine = qmc.Sobol(d=d, scramble=True, rng=random_state)
-    except TypeError:  # scipy < 1.15 names it seed
-        engine = qmc.Sobol(d=d, scramble=True, seed=random_state)
-    return engine.random_base2(m)
-
-
-class Prior:
-    """Base class of the priors of the calibration parameters.
-
-    Do not instantiate it: use :func:`check_prior`, or one of
-    :class:`IndependentPrior`, :class:`GaussianPrior` and
-    :class:`GenericPrior`. All share this interface.
-    """
-
-    #: Whether :meth:`integration_nodes` uses quadrature or quasi-Monte Carlo
-    #: through :meth:`transform` (True) or plain Monte Carlo (False).
-    _quantile_nodes = False
-
-    @property
-    def dim(self):
-        """int : The number ``r`` of calibration parameters."""
-        return self._dim
-
-    def _as_points(self, x, name="theta"):
-        """``x`` as a float array of shape (m, r) (see the module docstring)."""
-        try:
-            x = np.asarray(x, dtype=float)
-        except (TypeError, ValueError):
-            raise ValueError(
-                f"{name} must be an array of numbers of shape (m, {self.dim})."
-            ) from None
-        r = self.dim
-        if x.ndim == 0 and r == 1:
-            x = x.reshape(1, 1)
-        elif x.ndim == 1 and r == 1:
-            x = x[:, None]
-        elif x.ndim == 1 and x.shape[0] == r:
-            x = x[None, :]
-        elif x.ndim != 2 or x.shape[1] != r:
-            raise ValueError(
-                f"{name} must have shape (m, {r}) (or ({r},) for one point); "
-                f"got shape {x.shape}."
-            )
-        if np.isnan(x).any():
-            raise ValueError(f"{name} contains NaN.")
-        return x
-
-    def _as_unit(self, u):
-        u = self._as_points(u, name="u")
-        if (u < 0.0).any() or (u > 1.0).any():
-            raise ValueError("u must lie in the unit cube [0, 1]^r.")
-        return np.clip(u, _U_EPS, 1.0 - _U_EPS)
-
-    def logpdf(self, theta):
-        """Log prior density at the rows of ``theta``.
-
-        Parameters
-        ----------
-        theta : array-like of shape (m, r) or (r,)
-            Points; a 1-D array is read as in the module docstring.
-
-        Returns
-        -------
-        logpdf : ndarray of shape (m,)
-            ``-inf`` outside the support, never NaN.
-        """
-        theta = self._as_points(theta)
-        with np.errstate(invalid="ignore"):
-            out = np.asarray(self._logpdf(theta), dtype=float)
-        if out.size != len(theta):
-            raise ValueError(
-                f"the prior's logpdf returned {out.size} values for "
-                f"{len(theta)} points; it must return one value per row of "
-                f"an (m, {self.dim}) array."
-            )
-        out = out.reshape(len(theta))
-        return np.where(np.isnan(out), -np.inf, out)
-
-    def rvs(self, n, random_state=None):
-        """Random draws from the prior.
-
-        Parameters
-        ----------
-        n : int
-            Number of draws.
-        random_state : int, RandomState, Generator or None, default=None
-            Seed or generator; an int gives the same draws on every call.
-
-        Returns
-        -------
-        theta : ndarray of shape (n, r)
-        """
-        n = _check_count(n)
-        return self._rvs(n, _check_rng(random_state))
-
-    def bounds(self, coverage=0.999):
-        """Box containing the prior mass, for designs and for MCMC.
-
-        Parameters
-        ----------
-        coverage : float, default=0.999
-            Probability of the central interval used, in each dimension,
-            when the support is not a finite interval.
-
-        Returns
-        -------
-        bounds : ndarray of shape (r, 2)
-            Lower and upper bound of each parameter.
-        """
-        return self._bounds(_check_coverage(coverage))
-
-    def _is_gaussian_1d(self):
-        """Whether this is a one-parameter normal prior."""
-        if isinstance(self, GaussianPrior):
-            return True
-        dists = getattr(self, "distributions", [])
-        return len(dists) == 1 and getattr(dists[0].dist, "name", "") == "norm"
-
-    def integration_nodes(self, n, random_state=None):
-        """Nodes and weights for expectations over the prior.
-
-        ``E_prior[f(θ)] ≈ sum_k weights[k] * f(nodes[k])``. With one
-        parameter and a quantile function (:class:`IndependentPrior`,
-        :class:`GaussianPrior`), this is the prior-quantile Gauss-Legendre
-        rule (Gauss-Hermite for a normal prior):
-        ``E[f(θ)] = ∫_0^1 f(ppf(u)) du`` is computed with the
-        ``n``-point Gauss-Legendre rule mapped to ``(0, 1)`` (nodes
-        ``ppf(u_k)``, weights half the Gauss-Legendre ones), exact when
-        ``f∘ppf`` is a polynomial of degree ``< 2n`` (e.g. moments of a
-        uniform prior) and slower for heavy tails, where ``ppf`` is
-        unbounded. With several parameters, ``n`` is rounded up to a power
-        of two and the nodes are a scrambled Sobol sequence mapped by
-        :meth:`transform`, with equal weights. A :class:`GenericPrior`
-        uses ``n`` draws of :meth:`rvs` with equal weights (Monte Carlo).
-
-        Parameters
-        ----------
-        n : int
-            Number of nodes (rounded up to a power of two for Sobol nodes).
-        random_state : int, RandomState, Generator or None, default=None
-            Seed of the Sobol scrambling or of the Monte Carlo draws; an int
-            gives the same nodes on every call. Unused by the deterministic
-            one-parameter rule.
-
-        Returns
-        -------
-        nodes : ndarray of shape (k, r)
-        weights : ndarray of shape (k,)
-            Positive, summing to one.
-        """
-        n = _check_count(n)
-        if not self._quantile_nodes:
-            nodes = self.rvs(n, random_state=random_state)
-        elif self.dim == 1 and self._is_gaussian_1d():
-            # Gauss-Hermite (probabilists'): exact for polynomials of degree
-            # < 2n times the Gaussian, where the quantile rule converges
-            # slowly because the normal ppf is unbounded.
-            x, w = np.polynomial.hermite_e.hermegauss(n)
-            mean, sd = float(self.mean()[0]), float(np.sqrt(self.cov()[0, 0]))
-            return (mean + sd * x)[:, None], w / np.sum(w)
-        elif self.dim == 1:
-            x, w = leggauss(n)
-            u = np.clip((x + 1.0) / 2.0, _U_EPS, 1.0 - _U_EPS)
-            nodes = self._transform(u[:, None])
-            return nodes, w / np.sum(w)
-        else:
-            u = np.clip(_sobol(self.dim, n, random_state), _U_EPS, 1.0 - _U_EPS)
-            nodes = self._transform(u)
-        weights = np.full(len(nodes), 1.0 / len(nodes))
-        return nodes, weights
-
-    def transform(self, u):
-        """Map points of the unit cube to ``θ`` with the prior's quantiles.
-
-        Uniform points ``u`` give points ``θ`` distributed as the prior, so
-        space-filling designs on the cube become designs over the prior.
-        ``u`` is clipped to ``[1e-12, 1 - 1e-12]`` first, so that unbounded
-        priors give finite points.
-
-        Parameters
-        ----------
-        u : array-like of shape (m, r) or (r,)
-            Points of ``[0, 1]^r``.
-
-        Returns
-        -------
-        theta : ndarray of shape (m, r)
-        """
-        return self._transform(self._as_unit(u))
-
-    def mean(self):
-        """Prior mean of ``θ``.
-
-        Returns
-        -------
-        mean : ndarray of shape (r,)
-        """
-        return np.array(self._mean_value(), dtype=float).reshape(self.dim)
-
-    def cov(self):
-        """Prior covariance of ``θ``.
-
-        Returns
-        -------
-        cov : ndarray of shape (r, r)
-        """
-        cov = np.array(self._cov_value(), dtype=float)
-        return cov.reshape(self.dim, self.dim)
-
-    def mass_inside(self, lower, upper):
-        """Prior probability of the box ``lower <= θ <= upper``.
-
-        Used to check that simulations cover the prior. Exact for
-        :class:`IndependentPrior` (product of marginal CDF differences) and
-        one-parameter :class:`GaussianPrior`; otherwise the fraction of 20000
-        draws with the fixed seed 0 inside the box (standard error below
-        0.004), so the result is reproducible.
-
-        Parameters
-        ----------
-        lower, upper : array-like of shape (r,)
-            Corners of the box (``-inf``/``inf`` allowed).
-
-        Returns
-        -------
-        mass : float
-            In ``[0, 1]``.
-
-        Examples
-        --------
-        >>> from scipy.stats import norm, uniform
-        >>> from skmba._priors import check_prior
-        >>> prior = check_prior([uniform(0, 2), norm(0, 1)])
-        >>> round(prior.mass_inside([1.0, 0.0], [3.0, 10.0]), 4)
-        0.25
-        """
-        lower = np.asarray(lower, dtype=float).reshape(-1)
-        upper = np.asarray(upper, dtype=float).reshape(-1)
-        if lower.shape != (self.dim,) or upper.shape != (self.dim,):
-            raise ValueError(
-                f"lower and upper must have {self.dim} values (one per "
-                f"parameter); got {lower.size} and {upper.size}."
-            )
-        if np.isnan(lower).any() or np.isnan(upper).any():
-            raise ValueError("lower and upper must not contain NaN.")
-        return float(np.clip(self._mass_inside(lower, upper), 0.0, 1.0))
-
-    def _box_draws(self):
-        return self.rvs(_N_GENERIC_DRAWS, random_state=_GENERIC_SEED)
-
-    def _mass_inside(self, lower, upper):
-        draws = self._box_draws()
-        inside = np.all((draws >= lower) & (draws <= upper), axis=1)
-        return inside.mean()
 
 
 class IndependentPrior(Prior):
@@ -518,13 +102,17 @@ class IndependentPrior(Prior):
                 "distributions, one per parameter."
             )
         self.distributions = [
-            _check_univariate(d, f"prior[{i}]") for i, d in enumerate(distributions)
+            check_univariate(d, f"prior[{i}]") for i, d in enumerate(distributions)
         ]
         self._dim = len(self.distributions)
 
     def __repr__(self):
-        inner = ", ".join(_describe_univariate(d) for d in self.distributions)
+        inner = ", ".join(describe_univariate(d) for d in self.distributions)
         return f"IndependentPrior([{inner}])"
+
+    def _is_gaussian_1d(self):
+        dists = self.distributions
+        return len(dists) == 1 and getattr(dists[0].dist, "name", "") == "norm"
 
     def _logpdf(self, theta):
         out = np.zeros(len(theta))
@@ -625,7 +213,7 @@ class GaussianPrior(Prior):
         self._cov = cov
         self._chol = chol
         self._dim = len(mean)
-        self._log_norm = 0.5 * self._dim * _LOG_2PI + np.sum(np.log(np.diag(chol)))
+        self._log_norm = 0.5 * self._dim * LOG_2PI + np.sum(np.log(np.diag(chol)))
 
     def __repr__(self):
         kwargs = {"separator": ", ", "precision": 6, "max_line_width": 10**6}
@@ -633,6 +221,9 @@ class GaussianPrior(Prior):
         rows = ", ".join(np.array2string(row, **kwargs) for row in self._cov)
         cov = f"[{rows}]"
         return f"GaussianPrior(mean={mean}, cov={cov})"
+
+    def _is_gaussian_1d(self):
+        return True
 
     def _logpdf(self, theta):
         z = linalg.solve_triangular(
@@ -717,7 +308,7 @@ class GenericPrior(Prior):
             if not callable(getattr(distribution, method, None)):
                 raise TypeError(
                     f"prior of type {type(distribution).__name__} has no "
-                    f"{method} method; prior must be {_PRIOR_FORMS}."
+                    f"{method} method; prior must be {PRIOR_FORMS}."
                 )
         self.distribution = distribution
         own = getattr(distribution, "dim", None)
@@ -734,7 +325,7 @@ class GenericPrior(Prior):
             dim = int(own)
         self._dim = dim
         # One small draw checks rvs and logpdf, and gives dim if unknown.
-        draws = self._call_rvs(2, np.random.RandomState(_GENERIC_SEED))
+        draws = self._call_rvs(2, np.random.RandomState(FIXED_SEED))
         try:
             logp = np.asarray(self._logpdf(draws), dtype=float)
         except Exception as error:
@@ -778,7 +369,7 @@ class GenericPrior(Prior):
     def _fixed_draws(self):
         if self._draws is None:
             self._draws = self._call_rvs(
-                _N_GENERIC_DRAWS, np.random.RandomState(_GENERIC_SEED)
+                N_FIXED_DRAWS, np.random.RandomState(FIXED_SEED)
             )
         return self._draws
 
@@ -859,41 +450,23 @@ def check_prior(prior, n_parameters=None):
     ...
     ValueError: prior has 1 distribution(s) but there are 2 calibration parameters; ...
     """
-    if n_parameters is not None and (
-        isinstance(n_parameters, bool)
-        or not isinstance(n_parameters, numbers.Integral)
-        or n_parameters < 1
-    ):
-        raise ValueError(
-            f"n_parameters must be a positive integer or None; got {n_parameters!r}."
-        )
+    _check_n_parameters(n_parameters)
     if prior is None:
-        raise TypeError(f"prior is None; give the prior of theta as {_PRIOR_FORMS}.")
+        raise TypeError(f"prior is None; give the prior of theta as {PRIOR_FORMS}.")
     if isinstance(prior, Prior):
         result = prior
     elif isinstance(prior, type):
         raise TypeError(
             f"prior is the class {prior.__name__}, not a distribution; give "
-            f"an instance: {_PRIOR_FORMS}."
+            f"an instance: {PRIOR_FORMS}."
         )
     elif isinstance(prior, (list, tuple)):
-        if not prior:
-            raise ValueError(
-                "prior is an empty list; give one frozen scipy.stats "
-                "distribution per calibration parameter."
-            )
-        if n_parameters is not None and len(prior) != n_parameters:
-            raise ValueError(
-                f"prior has {len(prior)} distribution(s) but there are "
-                f"{n_parameters} calibration parameters; give one distribution "
-                "per parameter."
-            )
-        result = IndependentPrior(list(prior))
+        result = _independent_from_list(prior, n_parameters)
     elif isinstance(prior, (stats.rv_continuous, stats.rv_discrete)) or (
-        _is_frozen_univariate(prior)
+        is_frozen_univariate(prior)
     ):
-        result = IndependentPrior([_check_univariate(prior, "prior")])
-    elif _is_multivariate_generator(prior):
+        result = IndependentPrior([check_univariate(prior, "prior")])
+    elif is_multivariate_generator(prior):
         name = getattr(prior, "__class__", type(prior)).__name__.removesuffix("_gen")
         raise TypeError(
             f"prior is the unfrozen distribution scipy.stats.{name}; freeze it "
@@ -910,3 +483,31 @@ def check_prior(prior, n_parameters=None):
             f"{n_parameters}."
         )
     return result
+
+
+def _check_n_parameters(n_parameters):
+    """Raise unless ``n_parameters`` is None or a positive integer."""
+    if n_parameters is not None and (
+        isinstance(n_parameters, bool)
+        or not isinstance(n_parameters, numbers.Integral)
+        or n_parameters < 1
+    ):
+        raise ValueError(
+            f"n_parameters must be a positive integer or None; got {n_parameters!r}."
+        )
+
+
+def _independent_from_list(prior, n_parameters):
+    """An :class:`IndependentPrior` from a list of distributions, one a parameter."""
+    if not prior:
+        raise ValueError(
+            "prior is an empty list; give one frozen scipy.stats "
+            "distribution per calibration parameter."
+        )
+    if n_parameters is not None and len(prior) != n_parameters:
+        raise ValueError(
+            f"prior has {len(prior)} distribution(s) but there are "
+            f"{n_parameters} calibration parameters; give one distribution "
+            "per parameter."
+        )
+    return IndependentPrior(list(prior))

@@ -30,6 +30,8 @@ from numbers import Integral
 
 import numpy as np
 
+from skmba._validation import check_count
+
 
 def check_max_size(max_size, n_items):
     """``max_size`` as an int in ``[1, n_items]`` (None means ``n_items``)."""
@@ -151,13 +153,9 @@ def genetic(
     best : tuple
     """
     max_size = check_max_size(max_size, n_items)
-    for name, value in (
-        ("population_size", population_size),
-        ("n_generations", n_generations),
-        ("patience", patience),
-    ):
-        if isinstance(value, bool) or not isinstance(value, Integral) or value < 1:
-            raise ValueError(f"{name} must be a positive integer, got {value!r}.")
+    check_count(population_size, "population_size")
+    check_count(n_generations, "n_generations")
+    check_count(patience, "patience")
     if population_size < 2:
         raise ValueError(
             f"population_size must be at least 2 for crossover, got {population_size}."
