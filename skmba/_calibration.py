@@ -16,7 +16,7 @@ Examples
 """
 
 import time
-from numbers import Integral, Real
+from typing import ClassVar
 
 import numpy as np
 from scipy import stats
@@ -57,6 +57,16 @@ from skmba._simulations import (
     check_simulator_runs,
     collect_simulations,
     given_simulations,
+)
+from skmba._validation import (
+    Boolean,
+    Callable,
+    Count,
+    InstanceOf,
+    NJobs,
+    Options,
+    Real,
+    validate_parameter_table,
 )
 
 
@@ -245,6 +255,35 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
     True
     """
 
+    _parameter_constraints: ClassVar[dict] = {
+        "simulator": [
+            Callable(what="a callable simulator(X, theta) -> Y", allow_none=True)
+        ],
+        "prior": "no_validation",  # check_prior, in fit
+        "n_simulations": [Count(minimum=2, allow_none=True)],
+        "model_kernel": [InstanceOf(Kernel, what="an sklearn Kernel", allow_none=True)],
+        "discrepancy_kernel": [
+            InstanceOf(Kernel, what="an sklearn Kernel", allow_none=True)
+        ],
+        "regression": [Options(REGRESSIONS, hint="thesis Table 3.1")],
+        "discrepancy_regression": [Options(REGRESSIONS, hint="thesis Table 3.1")],
+        "noise": [Boolean()],
+        "integration": [Options(INTEGRATIONS)],
+        "sampler": [Options(SAMPLERS)],
+        "n_chains": [Count(minimum=1)],
+        "n_samples": [Count(minimum=1)],
+        "burn_in": [Count(minimum=0)],
+        "n_jobs": [NJobs()],
+        "random_state": "no_validation",  # check_random_state, in fit
+        "n_integration_nodes": [Count(minimum=2, allow_none=True)],
+        "module2_variance": [Options(MODULE2_VARIANCES)],
+        "n_restarts_optimizer": [Count(minimum=0)],
+        "discrepancy_optimizer": [Options(DISCREPANCY_OPTIMIZERS)],
+        "discrepancy_prior": "no_validation",  # check_discrepancy_ranges, in fit
+        "emulator_alpha": [Real(minimum=0, hint="the emulator's nugget, e.g. 1e-8")],
+        "verbose": [Count(minimum=0)],
+    }
+
     def __init__(
         self,
         simulator=None,
@@ -293,82 +332,6 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         self.discrepancy_prior = discrepancy_prior
         self.emulator_alpha = emulator_alpha
         self.verbose = verbose
-
-    # ------------------------------------------------------------ checks
-    def _check_params(self):
-        for name in ("regression", "discrepancy_regression"):
-            value = getattr(self, name)
-            if not isinstance(value, str) or value not in REGRESSIONS:
-                raise ValueError(
-                    f"{name}={value!r} is not supported; use one of "
-                    f"{REGRESSIONS} (thesis Table 3.1)."
-                )
-        for name, value, allowed in (
-            ("integration", self.integration, INTEGRATIONS),
-            ("sampler", self.sampler, SAMPLERS),
-            ("module2_variance", self.module2_variance, MODULE2_VARIANCES),
-            (
-                "discrepancy_optimizer",
-                self.discrepancy_optimizer,
-                DISCREPANCY_OPTIMIZERS,
-            ),
-        ):
-            if not isinstance(value, str) or value not in allowed:
-                raise ValueError(
-                    f"{name}={value!r} is not supported; use one of {allowed}."
-                )
-
-        def is_int(value):
-            return isinstance(value, Integral) and not isinstance(value, bool)
-
-        for name in ("n_chains", "n_samples"):
-            value = getattr(self, name)
-            if not is_int(value) or value < 1:
-                raise ValueError(f"{name} must be a positive integer, got {value!r}.")
-        for name in ("burn_in", "n_restarts_optimizer", "verbose"):
-            value = getattr(self, name)
-            if not is_int(value) or value < 0:
-                raise ValueError(
-                    f"{name} must be a non-negative integer, got {value!r}."
-                )
-        for name in ("n_simulations", "n_integration_nodes"):
-            value = getattr(self, name)
-            if value is not None and (not is_int(value) or value < 2):
-                raise ValueError(
-                    f"{name} must be an integer >= 2 or None, got {value!r}."
-                )
-        if self.n_jobs is not None and (not is_int(self.n_jobs) or self.n_jobs == 0):
-            raise ValueError(
-                f"n_jobs must be None, a positive integer (number of parallel "
-                f"tasks) or a negative one (-1: all cores), got {self.n_jobs!r}."
-            )
-        if not isinstance(self.noise, (bool, np.bool_)):
-            raise TypeError(
-                f"noise must be True or False, got {type(self.noise).__name__}."
-            )
-        for name in ("model_kernel", "discrepancy_kernel"):
-            value = getattr(self, name)
-            if value is not None and not isinstance(value, Kernel):
-                raise TypeError(
-                    f"{name} must be an sklearn Kernel or None, got "
-                    f"{type(value).__name__}."
-                )
-        if self.simulator is not None and not callable(self.simulator):
-            raise TypeError(
-                "simulator must be a callable simulator(X, theta) -> Y, got "
-                f"{type(self.simulator).__name__}."
-            )
-        alpha = self.emulator_alpha
-        if (
-            isinstance(alpha, bool)
-            or not isinstance(alpha, Real)
-            or not np.isfinite(alpha)
-            or alpha < 0
-        ):
-            raise ValueError(
-                f"emulator_alpha must be a finite float >= 0 (the emulator's "
-                f"nugget, e.g. 1e-8), got {alpha!r}."
-            )
 
     # -------------------------------------------------------------- fit
     def _say(self, message):
@@ -435,7 +398,7 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
 
     def _fit(self, X, y, X_sim, theta_sim, y_sim, partial):
         """Modules 1-3; returns what :meth:`_set_fitted` stores."""
-        self._check_params()
+        validate_parameter_table(self)
         check_field_data(X, y, self.discrepancy_regression)
         X, y = validate_data(self, X, y, multi_output=True, y_numeric=True)
         X = X.astype(float)

@@ -50,6 +50,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import linalg, optimize
 
+from skmba._diagnostics import check_diagnostics
 from skmba._linalg import (
     LOG_2PI,
     FactorizationError,
@@ -57,7 +58,7 @@ from skmba._linalg import (
     log_det_from_cholesky,
 )
 from skmba._regression import regression_basis
-from skmba._sampling import check_diagnostics, run_chains
+from skmba._sampling import run_chains
 
 _S_REMEDY = (
     "The field-data covariance (Schur complement of the simulation block) is "

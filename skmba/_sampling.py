@@ -54,9 +54,6 @@ from joblib import Parallel, delayed
 from scipy import linalg
 from threadpoolctl import threadpool_limits
 
-# re-exported until callers import from skmba._diagnostics
-# (split_rhat, imported below for ChainResult, is also imported from here)
-from skmba._diagnostics import check_diagnostics as check_diagnostics
 from skmba._diagnostics import ess_bulk, split_rhat
 from skmba._validation import check_count
 

@@ -27,7 +27,7 @@ differences between subsets are not Monte Carlo noise.
 
 import time
 import warnings
-from numbers import Integral
+from typing import ClassVar
 
 import numpy as np
 from joblib import Parallel, delayed
@@ -55,6 +55,14 @@ from skmba._preposterior import (
 from skmba._priors import check_prior
 from skmba._search import all_subsets, check_max_size, genetic, greedy_forward
 from skmba._subset_likelihood import FieldDesignEmulator
+from skmba._validation import (
+    Boolean,
+    Count,
+    InstanceOf,
+    NJobs,
+    Options,
+    validate_parameter_table,
+)
 
 SEARCHES = ("exhaustive", "greedy", "genetic")
 CRITERIA = ("trace", "det", "max_eig")
@@ -253,6 +261,34 @@ class PreposteriorDesigner(BaseEstimator):
     (3, 1, 1)
     """
 
+    _parameter_constraints: ClassVar[dict] = {
+        "prior": "no_validation",  # check_prior, in fit
+        "calibrator": [
+            InstanceOf(
+                ModularBayesCalibrator,
+                what="a ModularBayesCalibrator",
+                hint="a template of the MBA settings",
+                allow_none=True,
+            )
+        ],
+        "discrepancy_prior": "no_validation",  # check_design_priors, in fit
+        "noise_prior": "no_validation",
+        "X_design": "no_validation",  # check_array, in fit
+        "n_design": [Count(minimum=2, allow_none=True)],
+        "n_mc": [Count(minimum=1)],
+        "search": [Options(SEARCHES)],
+        "max_responses": "no_validation",  # check_max_size, in fit
+        "criterion": [Options(CRITERIA)],
+        "fast": [Boolean()],
+        "n_jobs": [NJobs()],
+        "random_state": "no_validation",  # check_random_state, in fit
+        "population_size": [Count(minimum=2)],
+        "n_generations": [Count(minimum=1)],
+        "verbose": [Count(minimum=0)],
+        "prior_units": [Options(PRIOR_UNITS)],
+        "module2_max_iter": [Count(minimum=1, allow_none=True)],
+    }
+
     def __init__(
         self,
         prior=None,
@@ -294,54 +330,6 @@ class PreposteriorDesigner(BaseEstimator):
         self.prior_units = prior_units
         self.module2_max_iter = module2_max_iter
 
-    # ------------------------------------------------------------ checks
-    def _check_params(self):
-        for name, value, allowed in (
-            ("search", self.search, SEARCHES),
-            ("criterion", self.criterion, CRITERIA),
-        ):
-            if not isinstance(value, str) or value not in allowed:
-                raise ValueError(
-                    f"{name}={value!r} is not supported; use one of {allowed}."
-                )
-        if self.module2_max_iter is not None and (
-            isinstance(self.module2_max_iter, bool)
-            or not isinstance(self.module2_max_iter, Integral)
-            or self.module2_max_iter < 1
-        ):
-            raise ValueError(
-                "module2_max_iter must be a positive integer or None, got "
-                f"{self.module2_max_iter!r}."
-            )
-        for name, minimum in (
-            ("n_mc", 1),
-            ("population_size", 2),
-            ("n_generations", 1),
-            ("verbose", 0),
-        ):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, Integral):
-                raise TypeError(f"{name} must be an int, got {value!r}.")
-            if value < minimum:
-                raise ValueError(f"{name} must be >= {minimum}, got {value}.")
-        if self.n_design is not None and (
-            isinstance(self.n_design, bool)
-            or not isinstance(self.n_design, Integral)
-            or self.n_design < 2
-        ):
-            raise ValueError(
-                f"n_design must be an integer >= 2 or None, got {self.n_design!r}."
-            )
-        if not isinstance(self.fast, bool | np.bool_):
-            raise TypeError(f"fast must be True or False, got {self.fast!r}.")
-        if self.calibrator is not None and not isinstance(
-            self.calibrator, ModularBayesCalibrator
-        ):
-            raise TypeError(
-                "calibrator must be a ModularBayesCalibrator (a template of the "
-                f"MBA settings) or None, got {type(self.calibrator).__name__}."
-            )
-
     # -------------------------------------------------------------- fit
     def fit(self, X, y):
         """Run the fast preposterior analysis.
@@ -363,7 +351,7 @@ class PreposteriorDesigner(BaseEstimator):
 
     def _fit(self, X, y):
         started = time.perf_counter()
-        self._check_params()
+        validate_parameter_table(self)
         X, y = validate_data(self, X, y, multi_output=True, y_numeric=True)
         X = X.astype(float)
         Y = np.asarray(y, dtype=float).reshape(len(X), -1)
@@ -381,11 +369,6 @@ class PreposteriorDesigner(BaseEstimator):
             raise ValueError(
                 "The simulated parameters (last r columns of X) do not overlap the "
                 "prior's support: simulate over the prior's range."
-            )
-        if self.prior_units not in PRIOR_UNITS:
-            raise ValueError(
-                f"prior_units={self.prior_units!r} is not supported; use one of "
-                f"{PRIOR_UNITS}."
             )
 
         # Step 1: emulator, design, priors, prior-integrated emulator.
@@ -475,7 +458,7 @@ class PreposteriorDesigner(BaseEstimator):
             ModularBayesCalibrator() if self.calibrator is None else self.calibrator
         )
         cal.set_params(prior=None, simulator=None, n_jobs=self.n_jobs)
-        cal._check_params()
+        validate_parameter_table(cal)
         return cal
 
     def _design(self, X_sim, seed):

@@ -566,7 +566,7 @@ BAD_INPUT = [
     case(
         "simulator-not-callable",
         TypeError,
-        r"simulator must be a callable simulator\(X, theta\) -> Y, got str",
+        r"simulator must be a callable simulator\(X, theta\) -> Y or None, got str",
         params=dict(simulator="model.exe"),
         sims={},
     ),
