@@ -568,6 +568,43 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         return self._predict_component(X, "discrepancy", return_std)
 
 
+def module_settings(cal):
+    """A calibrator's MBA settings as keyword arguments of the module functions.
+
+    The one translation of the parameters into the calls of
+    :func:`~skmba._emulator.fit_emulator` (``"emulator"``),
+    :func:`~skmba._integration.integrate_over_prior` (``"integration"``) and
+    :func:`~skmba._discrepancy.fit_discrepancy` (``"discrepancy"``), shared
+    by the calibrator and the sensor designer.
+
+    Examples
+    --------
+    >>> module_settings(ModularBayesCalibrator(noise=False))["discrepancy"]["noise"]
+    False
+    """
+    return {
+        "emulator": dict(
+            kernel=cal.model_kernel,
+            regression=cal.regression,
+            alpha=cal.emulator_alpha,
+            n_restarts_optimizer=cal.n_restarts_optimizer,
+        ),
+        "integration": dict(
+            rule=cal.integration,
+            n_nodes=cal.n_integration_nodes,
+            variance=cal.module2_variance,
+            n_jobs=cal.n_jobs,
+        ),
+        "discrepancy": dict(
+            kernel=cal.discrepancy_kernel,
+            regression=cal.discrepancy_regression,
+            noise=cal.noise,
+            optimizer=cal.discrepancy_optimizer,
+            n_restarts=cal.n_restarts_optimizer,
+        ),
+    }
+
+
 def _run_modules(est, X, Y, sims, prior, ranges, seeds):
     """Modules 1-3 with the estimator's parameters; the fitted pieces."""
     say = est._say
@@ -579,10 +616,7 @@ def _run_modules(est, X, Y, sims, prior, ranges, seeds):
         sims.X,
         sims.theta,
         sims.y,
-        kernel=est.model_kernel,
-        regression=est.regression,
-        alpha=est.emulator_alpha,
-        n_restarts_optimizer=est.n_restarts_optimizer,
+        **module_settings(est)["emulator"],
         random_state=seeds[0],
     )
     say(
@@ -609,22 +643,15 @@ def _module2(est, emulator, scaler, prior, Xs, Ys, ranges, seeds):
         scaler,
         prior,
         Xs,
-        rule=est.integration,
-        n_nodes=est.n_integration_nodes,
-        variance=est.module2_variance,
-        n_jobs=est.n_jobs,
+        **module_settings(est)["integration"],
         random_state=seeds[1],
     )
     disc = fit_discrepancy(
         Xs,
         Ys - integrated.mean,
         integrated.cov,
-        kernel=est.discrepancy_kernel,
-        regression=est.discrepancy_regression,
+        **module_settings(est)["discrepancy"],
         ranges=ranges,
-        noise=est.noise,
-        optimizer=est.discrepancy_optimizer,
-        n_restarts=est.n_restarts_optimizer,
         random_state=seeds[2],
     )
     say(

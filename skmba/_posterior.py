@@ -466,7 +466,7 @@ def posterior_by_quadrature(log_posterior, n_samples, rng, say=None):
             "simulations and the noise estimate (noise_), or use "
             "sampler='mcmc'.",
             UserWarning,
-            stacklevel=3,
+            stacklevel=6,
         )
     cdf = np.concatenate(
         [[0.0], np.cumsum(0.5 * (density[1:] + density[:-1]) * np.diff(t))]

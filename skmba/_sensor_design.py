@@ -38,7 +38,7 @@ from sklearn.utils import check_array, check_random_state
 from sklearn.utils.validation import check_is_fitted, validate_data
 from threadpoolctl import threadpool_limits
 
-from skmba._calibration import ModularBayesCalibrator
+from skmba._calibration import ModularBayesCalibrator, module_settings
 from skmba._discrepancy import (
     discrepancy_kernel,
 )
@@ -378,10 +378,7 @@ class PreposteriorDesigner(BaseEstimator):
             X_sim,
             theta_sim,
             Y,
-            kernel=cal.model_kernel,
-            regression=cal.regression,
-            alpha=cal.emulator_alpha,
-            n_restarts_optimizer=cal.n_restarts_optimizer,
+            **module_settings(cal)["emulator"],
             random_state=seeds[0],
         )
         priors = check_design_priors(
@@ -488,23 +485,16 @@ class PreposteriorDesigner(BaseEstimator):
         """Step 1 at the design: what every Monte Carlo task needs."""
         Xs = scaler.x(X_design)
         design = FieldDesignEmulator(emulator, Xs)
-        module2 = dict(
-            kernel=cal.discrepancy_kernel,
-            regression=cal.discrepancy_regression,
-            noise=cal.noise,
-            optimizer=cal.discrepancy_optimizer,
-            n_restarts=cal.n_restarts_optimizer,
+        settings = module_settings(cal)
+        ctx = MonteCarloContext(
+            self, scaler, design, prior, priors, settings["discrepancy"]
         )
-        ctx = MonteCarloContext(self, scaler, design, prior, priors, module2)
         ctx.integrated = integrate_over_prior(
             emulator,
             scaler,
             prior,
             Xs,
-            rule=cal.integration,
-            n_nodes=cal.n_integration_nodes,
-            variance=cal.module2_variance,
-            n_jobs=cal.n_jobs,
+            **settings["integration"],
             random_state=seeds[1],
         )
         kernel_d = discrepancy_kernel(cal.discrepancy_kernel, Xs)

@@ -340,7 +340,7 @@ def check_simulation_design(X, prior, sims):
             "the emulator extrapolates there. Extend the simulation design "
             "to cover X.",
             UserWarning,
-            stacklevel=5,
+            stacklevel=4,
         )
 
 
@@ -373,5 +373,5 @@ def _check_prior_coverage(prior, theta_sim, n_sim):
             "and module 2 integrates it over the whole prior. Extend the "
             "simulations to cover the prior, or narrow the prior.",
             UserWarning,
-            stacklevel=6,
+            stacklevel=5,
         )

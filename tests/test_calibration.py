@@ -585,10 +585,13 @@ def test_bad_input_table(params, X, y, sims, exception, match):
     X = BAD.X_obs if X is None else X
     y = BAD.y_obs if y is None else y
     if issubclass(exception, Warning):
-        # Documented warnings: the fit goes on and gives a finite posterior.
-        with pytest.warns(exception, match=match):
+        # Documented warnings: the fit goes on and gives a finite posterior,
+        # and the warning points at the caller of fit, not into skmba.
+        with pytest.warns(exception, match=match) as record:
             cal.fit(X, y, **sims)
         assert np.all(np.isfinite(cal.theta_mean_))
+        ours = [w for w in record if re.search(match, str(w.message))]
+        assert {w.filename for w in ours} == {__file__}
     else:
         with pytest.raises(exception, match=match):
             cal.fit(X, y, **sims)
@@ -933,8 +936,12 @@ def test_unresolved_quadrature_posterior_is_reported(monkeypatch, capsys):
     # the calibrator says that theta_cov_ is then underestimated.
     monkeypatch.setattr(posterior_module, "_RESOLVED_NODES", 202)
     cal = ModularBayesCalibrator(prior=BAD.prior, n_restarts_optimizer=0, verbose=1)
-    with pytest.warns(UserWarning, match=r"narrower than the quadrature resolved "):
+    with pytest.warns(
+        UserWarning, match=r"narrower than the quadrature resolved "
+    ) as record:
         cal.fit(BAD.X_obs, BAD.y_obs, **SIMS)
     assert np.isfinite(cal.theta_mean_[0])
+    ours = [w for w in record if "narrower than the quadrature" in str(w.message)]
+    assert {w.filename for w in ours} == {__file__}
     out = capsys.readouterr().out
     assert "quadrature pass 8 (201 nodes" in out and "pass 9" not in out
