@@ -22,7 +22,6 @@ import numpy as np
 from scipy import stats
 from sklearn.base import BaseEstimator, MultiOutputMixin, RegressorMixin
 from sklearn.gaussian_process.kernels import Kernel
-from sklearn.utils import check_random_state
 from sklearn.utils.validation import check_is_fitted, validate_data
 from threadpoolctl import threadpool_limits
 
@@ -66,6 +65,8 @@ from skmba._validation import (
     NJobs,
     Options,
     Real,
+    int_seed,
+    seed_sequence,
     validate_parameter_table,
 )
 
@@ -407,12 +408,14 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         d, q = X.shape[1], Y.shape[1]
         # Before any simulation runs: a bad range must not waste them.
         ranges = check_discrepancy_ranges(self.discrepancy_prior, d, q)
-        rng = check_random_state(self.random_state)
+        # One child of the seed per random step: the simulation design, then
+        # modules 1, 2a, 2b and 3.
+        seeds = [int_seed(c) for c in seed_sequence(self.random_state).spawn(5)]
         given = given_simulations(X, q, X_sim, theta_sim, y_sim)
         prior = _checked_prior(self.prior, given)
         for name, other in (("integration", "qmc"), ("sampler", "mcmc")):
             one_parameter_rule(name, getattr(self, name), prior.dim, several=other)
-        sims = self._simulations(X, q, prior, given, rng)
+        sims = self._simulations(X, q, prior, given, seeds[0])
         partial["simulations"] = sims
         check_simulator_runs(sims)
         if sims.theta.shape[1] != prior.dim:
@@ -421,22 +424,20 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
                 f"{prior.dim} parameters."
             )
         check_simulation_design(X, prior, sims)
-        seeds = rng.randint(2**31 - 1, size=4)
         return dict(
             Y_ndim=np.ndim(y),
             prior=prior,
             sims=sims,
-            **_run_modules(self, X, Y, sims, prior, ranges, seeds),
+            **_run_modules(self, X, Y, sims, prior, ranges, seeds[1:]),
         )
 
-    def _simulations(self, X, q, prior, given, rng):
+    def _simulations(self, X, q, prior, given, seed):
         """The given runs and the simulator's, on a Latin hypercube."""
         k = X.shape[1] + prior.dim
         n_runs = (self.n_simulations or 10 * k) if self.simulator is not None else 0
         check_design_size(
             n_runs + (0 if given is None else len(given.X)), self.regression, k
         )
-        seed = rng.randint(2**31 - 1) if self.simulator is not None else None
         return collect_simulations(
             self.simulator, X, q, prior, given, n_runs, seed, self._say
         )
@@ -683,7 +684,7 @@ def _module3(est, emulator, scaler, prior, sims, Xs, Ys, disc, seed):
         posterior = posterior_by_quadrature(
             log_post,
             est.n_samples,
-            np.random.RandomState(seed),
+            random_state=seed,
             say=say,
         )
     else:

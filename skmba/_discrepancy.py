@@ -39,7 +39,6 @@ import numpy as np
 from scipy import linalg, optimize
 from sklearn.base import clone
 from sklearn.exceptions import ConvergenceWarning
-from sklearn.utils import check_random_state
 
 from skmba._gp import default_kernel
 from skmba._linalg import (
@@ -52,6 +51,7 @@ from skmba._linalg import (
     log_det_from_cholesky,
 )
 from skmba._regression import regression_basis
+from skmba._validation import seed_sequence
 
 DISCREPANCY_OPTIMIZERS = ("fmin_l_bfgs_b", "differential_evolution")
 #: Thesis Table 6.2: ranges of the discrepancy roughness (per standardised
@@ -368,7 +368,7 @@ class DiscrepancyFit:
         start (None: scipy's default); reaching it is not warned about, the
         caller asked for it.
         """
-        rng = check_random_state(random_state)
+        rng = np.random.default_rng(seed_sequence(random_state))
         bounds = self.bounds()
         x0 = self.start() if start is None else np.clip(start, *bounds.T)
         starts = [x0]
@@ -389,7 +389,7 @@ class DiscrepancyFit:
             result = optimize.differential_evolution(
                 lambda p: self._objective(p, eval_gradient=False),
                 box,
-                seed=rng.randint(2**31 - 1),
+                seed=int(rng.integers(2**31 - 1)),
                 polish=False,
                 tol=1e-6,
                 maxiter=300,

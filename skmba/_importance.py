@@ -78,7 +78,8 @@ def gaussian_rule(mean, cov, n, random_state=None):
         weights = w / w.sum()
     else:
         m = 1 << int(np.ceil(np.log2(n)))
-        u = stats.qmc.Sobol(r, scramble=True, seed=random_state).random(m)
+        rng = np.random.default_rng(random_state)  # a seed, its list or None
+        u = stats.qmc.Sobol(r, scramble=True, seed=rng).random(m)
         z = stats.norm.ppf(np.clip(u, 1e-12, 1.0 - 1e-12))
         nodes = mean + z @ np.linalg.cholesky(cov).T
         weights = np.full(m, 1.0 / m)
@@ -145,7 +146,9 @@ def posterior_moments(
             mean,
             corr * np.outer(scale, scale),
             n_refine,
-            random_state=None if seed is None else seed + refinement,
+            random_state=None
+            if seed is None
+            else np.random.default_rng([seed, refinement]),
         )
         w_new = _normalised(
             np.log(w_rule) + prior.logpdf(x) + log_likelihood(x) - log_q

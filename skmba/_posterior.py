@@ -59,6 +59,7 @@ from skmba._linalg import (
 )
 from skmba._regression import regression_basis
 from skmba._sampling import run_chains
+from skmba._validation import seed_sequence
 
 _S_REMEDY = (
     "The field-data covariance (Schur complement of the simulation block) is "
@@ -413,7 +414,7 @@ def _quadrature_pass(log_posterior, lo, hi):
     return t, density, w / w.sum()
 
 
-def posterior_by_quadrature(log_posterior, n_samples, rng, say=None):
+def posterior_by_quadrature(log_posterior, n_samples, random_state=None, say=None):
     """Adaptive Gauss-Legendre quadrature of a one-parameter posterior.
 
     A first 201-node rule over the prior's 0.9999 interval locates the
@@ -430,8 +431,9 @@ def posterior_by_quadrature(log_posterior, n_samples, rng, say=None):
     log_posterior : LogPosterior
     n_samples : int
         Draws to return.
-    rng : numpy RandomState
-        One uniform, the offset of the stratified draws.
+    random_state : int, SeedSequence or None
+        Seed of the one uniform that offsets the stratified draws (see
+        :func:`~skmba._validation.seed_sequence`).
     say : callable, default=None
         Progress messages.
 
@@ -472,6 +474,7 @@ def posterior_by_quadrature(log_posterior, n_samples, rng, say=None):
         [[0.0], np.cumsum(0.5 * (density[1:] + density[:-1]) * np.diff(t))]
     )
     cdf = cdf / cdf[-1]
+    rng = np.random.default_rng(seed_sequence(random_state))
     u = (np.arange(n_samples) + rng.uniform()) / n_samples
     samples = np.interp(u, cdf, t)[:, None]
     return PosteriorResult.from_rule(samples, t[:, None], w, (lo, hi))
@@ -587,7 +590,8 @@ def posterior_by_mcmc(
     n_chains, n_samples, burn_in : int
     n_jobs : int, default=None
         Chains in parallel through joblib.
-    random_state : int
+    random_state : int, SeedSequence or None
+        Seeds the starts and, through a second child, the chains.
     verbose : int
         Passed to the sampler.
     say : callable, default=None
@@ -598,7 +602,8 @@ def posterior_by_mcmc(
     PosteriorResult
     """
     say = say or (lambda message: None)
-    rng = np.random.RandomState(random_state)
+    starts_seed, chains_seed = seed_sequence(random_state).spawn(2)
+    rng = np.random.default_rng(starts_seed)
     started = time.perf_counter()
     starts, cov = _chain_starts(log_posterior, n_chains, rng)
     r = starts.shape[1]
@@ -615,7 +620,7 @@ def posterior_by_mcmc(
         proposal_cov=(2.38**2 / r) * cov,
         adapt=True,
         n_jobs=n_jobs,
-        random_state=rng.randint(2**31 - 1),
+        random_state=chains_seed,
         verbose=verbose,
     )
     chains = log_posterior.from_u(result.samples)

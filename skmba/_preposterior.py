@@ -26,6 +26,7 @@ from skmba._discrepancy import TABLE_6_2_RANGES, check_interval, fit_discrepancy
 from skmba._importance import posterior_moments
 from skmba._regression import regression_basis
 from skmba._subset_likelihood import SubsetLikelihood
+from skmba._validation import int_seed
 
 PRIOR_UNITS = ("standardised", "user")
 
@@ -85,10 +86,6 @@ class Replicate:
         self.n_unconverged = 0
 
 
-def _seed(sequence):
-    return int(sequence.generate_state(1)[0])
-
-
 def _mask(subset):
     """A subset as the integer whose bits are its responses."""
     return sum(1 << int(a) for a in subset)
@@ -101,9 +98,7 @@ def draw_replicate(ctx, sequence):
     n, q = ctx.n, ctx.q
     theta = ctx.prior.rvs(1, random_state=rng)[0]
     Z = np.hstack([ctx.Xs, np.tile(ctx.std_theta(theta), (n, 1))])
-    Y_m = ctx.emulator.gp.sample_y(
-        Z, 1, random_state=np.random.RandomState(_seed(sequence))
-    ).reshape(n, q)
+    Y_m = ctx.emulator.gp.sample_y(Z, 1, random_state=int_seed(sequence)).reshape(n, q)
     # Discrepancy hyperparameters and realisation.
     roughness = rng.uniform(*p["roughness"])
     R_d = clone(ctx.kernel_d).set_params(roughness=roughness)(ctx.Xs)
@@ -126,7 +121,7 @@ def draw_replicate(ctx, sequence):
     delta = H_d @ beta + root(R_d) @ rng.standard_normal((n, q)) @ root(sigma2_d).T
     noise = rng.uniform(*p["noise"])
     eps = rng.standard_normal((n, q)) * np.sqrt(noise)
-    rep = Replicate(theta, Y_m + delta + eps, _seed(sequence))
+    rep = Replicate(theta, Y_m + delta + eps, int_seed(sequence))
     rep.truth = (roughness, sigma2_d, noise)
     if ctx.fast:
         disc = _fit_module2(ctx, rep, range(q))
@@ -139,7 +134,7 @@ def _fit_module2(ctx, rep, responses):
     idx = list(responses)
     integrated = ctx.integrated.restrict(idx)
     residual = rep.Y_e[:, idx] - integrated.mean
-    seed = _seed(np.random.SeedSequence([rep.seed, 1, _mask(idx)]))
+    seed = int_seed(np.random.SeedSequence([rep.seed, 1, _mask(idx)]))
     roughness, sigma2_d, noise = rep.truth
 
     def start(fit):
@@ -197,7 +192,7 @@ def posterior_block(ctx, replicates, subsets):
             def log_likelihood(thetas, like=like):
                 return like.log_likelihood(design.pieces(ctx.std_theta(thetas)))
 
-            seed = _seed(np.random.SeedSequence([rep.seed, 2, _mask(subset)]))
+            seed = int_seed(np.random.SeedSequence([rep.seed, 2, _mask(subset)]))
             means[i, j], covs[i, j] = posterior_moments(
                 log_likelihood,
                 ctx.prior,

@@ -37,7 +37,7 @@ from numpy.polynomial.legendre import leggauss
 from scipy.stats import qmc
 
 from skmba._prior_checks import as_float_array, check_coverage, check_rng
-from skmba._validation import check_count
+from skmba._validation import check_count, seed_sequence
 
 #: Points of the unit cube are kept in ``[_U_EPS, 1 - _U_EPS]`` before a
 #: quantile function is applied, so that unbounded priors give finite nodes.
@@ -61,11 +61,7 @@ def _sobol(d, n, random_state):
             "random_state must be a non-negative int, None, a numpy "
             f"RandomState or a numpy Generator; got {random_state!r}."
         )
-    if isinstance(random_state, numbers.Integral):
-        random_state = int(random_state)
-    elif isinstance(random_state, np.random.RandomState):
-        # scipy's Sobol cannot spawn from a RandomState: seed a Generator
-        random_state = np.random.default_rng(random_state.randint(2**31))
+    random_state = np.random.default_rng(seed_sequence(random_state))
     m = max(0, math.ceil(math.log2(n)))
     try:
         engine = qmc.Sobol(d=d, scramble=True, rng=random_state)

@@ -47,7 +47,6 @@ True
 import math
 import time
 from dataclasses import dataclass
-from numbers import Integral
 
 import numpy as np
 from joblib import Parallel, delayed
@@ -55,7 +54,7 @@ from scipy import linalg
 from threadpoolctl import threadpool_limits
 
 from skmba._diagnostics import ess_bulk, split_rhat
-from skmba._validation import check_count
+from skmba._validation import check_count, seed_sequence
 
 # Optimal scaling of a random-walk proposal for a Gaussian target in r
 # dimensions (Gelman, Roberts & Gilks 1996): proposal covariance
@@ -180,11 +179,10 @@ def run_chains(
         (default backend, so :func:`joblib.parallel_config` applies). Each
         chain holds BLAS to one thread, so that its arithmetic, hence its
         draws, do not depend on the backend or on the number of cores.
-    random_state : int, RandomState, Generator or None, default=None
-        Source of the entropy of :class:`numpy.random.SeedSequence`, whose
-        ``spawn(n_chains)`` children seed the chains: an int is used as is, a
-        ``RandomState`` or ``Generator`` gives one random integer, ``None``
-        fresh entropy. Results do not depend on ``n_jobs``.
+    random_state : int, RandomState, Generator, SeedSequence or None
+        Source of the :class:`numpy.random.SeedSequence` (see
+        :func:`~skmba._validation.seed_sequence`) whose ``spawn(n_chains)``
+        children seed the chains. Results do not depend on ``n_jobs``.
     verbose : int, default=0
         Verbosity of :class:`joblib.Parallel`; from 2 on, each chain also
         prints (to the standard output of the process that runs it) the end
@@ -219,7 +217,7 @@ def run_chains(
     burn_in = check_count(burn_in, "burn_in", minimum=0)
     chols = _proposal_chols(proposal_cov, n_chains, r)
     start_values = _start_values(densities, starts)
-    seeds = np.random.SeedSequence(_entropy(random_state)).spawn(n_chains)
+    seeds = seed_sequence(random_state).spawn(n_chains)
     return _run_parallel(
         zip(densities, starts, start_values, chols, seeds, strict=True),
         n_samples=n_samples,
@@ -330,24 +328,6 @@ def _per_chain(log_density, n_chains):
             f"(one per row of starts), got {len(densities)} entries"
         )
     return densities
-
-
-def _entropy(random_state):
-    """Entropy of the chains' SeedSequence from ``random_state``."""
-    if random_state is None:
-        return None
-    if isinstance(random_state, np.random.Generator):
-        return int(random_state.integers(2**63))
-    if isinstance(random_state, np.random.RandomState):
-        return int(random_state.randint(2**63, dtype=np.int64))
-    if isinstance(random_state, Integral) and not isinstance(random_state, bool):
-        if random_state < 0:
-            raise ValueError(f"random_state must be non-negative, got {random_state}")
-        return int(random_state)
-    raise ValueError(
-        "random_state must be None, a non-negative int, a numpy RandomState or a "
-        f"numpy Generator, got {random_state!r}"
-    )
 
 
 def _evaluate(log_density, theta, chain):

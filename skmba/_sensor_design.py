@@ -34,7 +34,7 @@ from joblib import Parallel, delayed
 from scipy import stats
 from sklearn.base import BaseEstimator, clone
 from sklearn.exceptions import ConvergenceWarning
-from sklearn.utils import check_array, check_random_state
+from sklearn.utils import check_array
 from sklearn.utils.validation import check_is_fitted, validate_data
 from threadpoolctl import threadpool_limits
 
@@ -61,6 +61,8 @@ from skmba._validation import (
     InstanceOf,
     NJobs,
     Options,
+    int_seed,
+    seed_sequence,
     validate_parameter_table,
 )
 
@@ -358,8 +360,10 @@ class PreposteriorDesigner(BaseEstimator):
         prior, d = self._prior(X)
         q = Y.shape[1]
         max_size = check_max_size(self.max_responses, q)
-        rng = check_random_state(self.random_state)
-        seeds = rng.randint(2**31 - 1, size=4)
+        # One child of the seed per random step: module 1, module 2a, the
+        # design (and the genetic search), the nodes, the replicates.
+        children = seed_sequence(self.random_state).spawn(5)
+        seeds = [int_seed(c) for c in children[:4]]
         cal = self._template()
         X_sim, theta_sim = X[:, :d], X[:, d:]
         support = prior.bounds(0.999)
@@ -395,7 +399,7 @@ class PreposteriorDesigner(BaseEstimator):
         self._log("step 1: emulator and prior-integrated emulator", started)
 
         # Step 2, phase 1: replicates and (fast) their discrepancy estimates.
-        sequences = np.random.SeedSequence(int(seeds[3])).spawn(self.n_mc)
+        sequences = children[4].spawn(self.n_mc)
         parallel = Parallel(n_jobs=self.n_jobs)
         replicates = parallel(delayed(draw_replicate)(ctx, s) for s in sequences)
         self._log(f"phase 1: {self.n_mc} replicates", started)

@@ -239,3 +239,57 @@ def check_count(value, name, *, minimum=1):
     if not count.accepts(value):
         raise InvalidParameterError(count.message(name, value))
     return int(value)
+
+
+def seed_sequence(random_state):
+    """The package's one way from ``random_state`` to random numbers.
+
+    Every random step of an estimator draws from its own child of one
+    :class:`numpy.random.SeedSequence` (``spawn``), so that the steps are
+    independent and the result does not depend on the order in which
+    parallel tasks run.
+
+    Parameters
+    ----------
+    random_state : None, int, RandomState, Generator or SeedSequence
+        An int (>= 0) is the entropy as is; a ``RandomState`` or
+        ``Generator`` gives one random integer; a ``SeedSequence`` is used as
+        is; None draws fresh entropy.
+
+    Returns
+    -------
+    numpy.random.SeedSequence
+
+    Examples
+    --------
+    >>> seed_sequence(3).entropy
+    3
+    """
+    if random_state is None:
+        return np.random.SeedSequence()
+    if isinstance(random_state, np.random.SeedSequence):
+        return random_state
+    if isinstance(random_state, np.random.Generator):
+        return np.random.SeedSequence(int(random_state.integers(2**63)))
+    if isinstance(random_state, np.random.RandomState):
+        return np.random.SeedSequence(int(random_state.randint(2**63, dtype=np.int64)))
+    if _is_int(random_state) and random_state >= 0:
+        return np.random.SeedSequence(int(random_state))
+    raise InvalidParameterError(
+        "random_state must be None, a non-negative int, a numpy RandomState, a "
+        f"numpy Generator or a SeedSequence, got {random_state!r}."
+    )
+
+
+def int_seed(sequence):
+    """A 32-bit integer seed from a :class:`numpy.random.SeedSequence`.
+
+    For the APIs that take an int seed (scikit-learn's ``random_state``,
+    scipy's quasi-Monte Carlo engines).
+
+    Examples
+    --------
+    >>> int_seed(np.random.SeedSequence(0)) == int_seed(np.random.SeedSequence(0))
+    True
+    """
+    return int(sequence.generate_state(1)[0])

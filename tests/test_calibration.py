@@ -945,3 +945,16 @@ def test_unresolved_quadrature_posterior_is_reported(monkeypatch, capsys):
     assert {w.filename for w in ours} == {__file__}
     out = capsys.readouterr().out
     assert "quadrature pass 8 (201 nodes" in out and "pass 9" not in out
+
+
+def test_a_numpy_generator_seeds_the_fit_reproducibly():
+    def run():
+        cal = ModularBayesCalibrator(
+            prior=BAD.prior,
+            n_restarts_optimizer=0,
+            n_samples=200,
+            random_state=np.random.default_rng(5),
+        )
+        return cal.fit(BAD.X_obs, BAD.y_obs, **SIMS).theta_samples_
+
+    np.testing.assert_array_equal(run(), run())

@@ -18,6 +18,8 @@ from skmba._validation import (
     Options,
     Real,
     check_count,
+    int_seed,
+    seed_sequence,
     validate_parameter_table,
 )
 
@@ -217,3 +219,22 @@ def test_check_count():
         check_count(-1, "burn_in", minimum=0)
     with pytest.raises(ValueError, match=r"n_design must be an integer >= 2, got True"):
         check_count(True, "n_design", minimum=2)
+
+
+@pytest.mark.parametrize(
+    "random_state",
+    [7, np.random.RandomState(7), np.random.default_rng(7), np.random.SeedSequence(7)],
+)
+def test_seed_sequence_takes_every_kind_of_random_state(random_state):
+    sequence = seed_sequence(random_state)
+    assert isinstance(sequence, np.random.SeedSequence)
+    children = [int_seed(c) for c in sequence.spawn(3)]
+    assert len(set(children)) == 3  # independent streams
+
+
+def test_seed_sequence_is_reproducible_and_refuses_bad_seeds():
+    assert int_seed(seed_sequence(3)) == int_seed(seed_sequence(3))
+    assert int_seed(seed_sequence(3)) != int_seed(seed_sequence(4))
+    for bad in (-1, 1.5, "0", True):
+        with pytest.raises(ValueError, match="random_state must be None, a non-neg"):
+            seed_sequence(bad)
