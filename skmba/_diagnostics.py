@@ -114,6 +114,9 @@ def split_rhat(chains):
     deviations from the median of all draws, which detects chains with
     different scales. Following Vehtari et al. (2021), the larger of the two
     is returned; values above 1.01 indicate that the chains have not mixed.
+    With two chains or more this equals ``arviz.rhat(chains, method="rank")``
+    to rounding; for a single chain ArviZ returns NaN while this compares
+    its two halves.
 
     Parameters
     ----------
@@ -155,7 +158,11 @@ def _autocovariance(chains):
 
 
 def _ess(chains):
-    """Effective sample size of chains (n_chains, n) with Geyer's estimator."""
+    """Effective sample size of chains (n_chains, n) with Geyer's estimator.
+
+    A line-by-line transcription of Stan's ``compute_effective_sample_size``
+    (as in ArviZ's ``_ess``), so that the values agree with both.
+    """
     m, n = chains.shape
     acov = _autocovariance(chains)
     within = acov[:, 0].mean() * n / (n - 1)
@@ -164,16 +171,30 @@ def _ess(chains):
         var_plus += chains.mean(axis=1).var(ddof=1)
     rho = 1.0 - (within - acov.mean(axis=0)) / var_plus
     rho[0] = 1.0
-    # Geyer's initial monotone sequence: sums of adjacent pairs of
-    # autocorrelations, truncated before the first negative one and made
-    # non-increasing.
-    n_pairs = n // 2
-    pairs = rho[0 : 2 * n_pairs : 2] + rho[1 : 2 * n_pairs : 2]
-    negative = np.flatnonzero(pairs < 0.0)
-    if negative.size:
-        pairs = pairs[: negative[0]]
-    pairs = np.minimum.accumulate(pairs)
-    tau = 2.0 * pairs.sum() - 1.0
+    if np.isnan(rho).any():
+        return math.nan
+    # Geyer's initial positive sequence: pairs rho_2k + rho_2k+1 are kept
+    # up to the first negative one (lags up to n - 2).
+    kept = np.zeros(n)
+    kept[:2] = rho[:2]
+    even, odd = 1.0, rho[1]
+    t = 1
+    while t < n - 3 and even + odd > 0.0:
+        even, odd = rho[t + 1], rho[t + 2]
+        if even + odd >= 0.0:
+            kept[t + 1], kept[t + 2] = even, odd
+        t += 2
+    max_t = t - 2
+    # Stan's tail term: the last even lag, when positive, counts once.
+    if even > 0.0:
+        kept[max_t + 1] = even
+    # Geyer's initial monotone sequence: each pair no larger than the last.
+    t = 1
+    while t <= max_t - 2:
+        if kept[t + 1] + kept[t + 2] > kept[t - 1] + kept[t]:
+            kept[t + 1] = kept[t + 2] = (kept[t - 1] + kept[t]) / 2.0
+        t += 2
+    tau = -1.0 + 2.0 * kept[: max_t + 1].sum() + kept[max_t + 1 : max_t + 2].sum()
     # As Stan does, bound the ESS by m n log10(m n) for antithetic chains.
     tau = max(tau, 1.0 / math.log10(m * n))
     return m * n / tau
@@ -189,8 +210,11 @@ def ess_bulk(chains):
     ``rho_t = 1 - (W - mean_m acov_m(t)) / var_plus`` (Vehtari et al. 2021,
     Eq. 10), from autocovariances computed by FFT; ``P_k = rho_2k + rho_2k+1``
     are summed up to the first negative ``P_k`` and made non-increasing
-    (Geyer's initial monotone sequence estimator). ``tau`` is bounded below by
-    ``1 / log10(M N)``.
+    (Geyer's initial monotone sequence estimator), and the last even-lag
+    autocorrelation, when positive, is added once (Stan's tail term).
+    ``tau`` is bounded below by ``1 / log10(M N)``. The result equals
+    ``arviz.ess(chains, method="bulk")`` (ArviZ 0.x) and Stan's bulk ESS to
+    rounding (checked in ``tests/test_diagnostics.py``).
 
     Parameters
     ----------
