@@ -29,7 +29,9 @@ from sklearn.utils import check_random_state
 #: The forms of prior :func:`skmba._priors.check_prior` accepts, for messages.
 PRIOR_FORMS = (
     "a list of frozen continuous scipy.stats distributions, one per "
-    "parameter (e.g. [uniform(20e3, 80e3), norm(50e3, 1e4)]), a frozen "
+    "parameter (e.g. [uniform(20e3, 80e3), norm(50e3, 1e4)]), a dict of them "
+    "naming the parameters (e.g. {'E': uniform(20e3, 80e3), 'I': norm(2, 0.1)}), "
+    "a frozen "
     "scipy.stats.multivariate_normal(mean, cov), or an object with logpdf "
     "and rvs methods"
 )
@@ -142,6 +144,42 @@ def check_univariate(dist, where):
             "it as an input instead, or give its prior a positive width."
         )
     return dist
+
+
+def check_parameter_names(names, n_parameters):
+    """Parameter names as a tuple of distinct non-empty strings, or None.
+
+    Examples
+    --------
+    >>> check_parameter_names(["E", "I"], 2)
+    ('E', 'I')
+    >>> check_parameter_names(["E", "E"], 2)
+    Traceback (most recent call last):
+    ...
+    ValueError: prior names the parameter 'E' twice; ...
+    """
+    if names is None:
+        return None
+    names = tuple(names)
+    if len(names) != n_parameters:
+        raise ValueError(
+            f"prior has {len(names)} name(s) for {n_parameters} distribution(s); "
+            "give one name per parameter."
+        )
+    for name in names:
+        if not isinstance(name, str) or not name:
+            raise TypeError(
+                f"prior's parameter names must be non-empty strings (the keys "
+                f"of a dict prior, e.g. {{'E': uniform(20e3, 80e3)}}); got "
+                f"{name!r}."
+            )
+    for name in names:
+        if names.count(name) > 1:
+            raise ValueError(
+                f"prior names the parameter {name!r} twice; give each "
+                "parameter its own name."
+            )
+    return names
 
 
 def as_float_array(value, message):

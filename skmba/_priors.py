@@ -10,12 +10,15 @@ gives into a :class:`Prior` with that interface:
 
 * a list of ``r`` frozen continuous univariate ``scipy.stats``
   distributions, independent of each other (a single frozen distribution
-  is accepted as ``r = 1``): :class:`IndependentPrior`;
+  is accepted as ``r = 1``): :class:`IndependentPrior`; a dict ``{name:
+  distribution}`` is the same with named parameters (``prior.names``);
 * a frozen ``scipy.stats.multivariate_normal``: :class:`GaussianPrior`;
 * any object with ``logpdf`` and ``rvs`` methods (optionally ``dim`` and
   ``ppf``), such as a frozen ``scipy.stats.multivariate_t`` or a user
   class: :class:`GenericPrior`.
 
+Every prior has ``names``: the parameter names of a dict prior, in its
+order, else None (the calibrator then calls them ``theta0, theta1, ...``).
 The interface itself, and how a 1-D ``theta`` is read (one point, or ``m``
 points when ``r = 1``), are those of the base class
 :class:`~skmba._prior_base.Prior`; the checks of what the user gives are in
@@ -38,6 +41,7 @@ array([[2.000e+04, 1.000e+05],
 """
 
 import numbers
+from collections.abc import Mapping
 
 import numpy as np
 from scipy import linalg, stats
@@ -46,6 +50,7 @@ from skmba._linalg import LOG_2PI
 from skmba._prior_base import FIXED_SEED, N_FIXED_DRAWS, Prior
 from skmba._prior_checks import (
     PRIOR_FORMS,
+    check_parameter_names,
     check_univariate,
     describe_univariate,
     is_frozen_univariate,
@@ -70,6 +75,12 @@ class IndependentPrior(Prior):
     ----------
     distributions : list of frozen scipy.stats continuous distributions
         One per calibration parameter.
+    names : sequence of str, default=None
+        The parameter names (the keys of a dict prior), or None.
+
+    Attributes
+    ----------
+    names : tuple of str or None
 
     Notes
     -----
@@ -95,19 +106,25 @@ class IndependentPrior(Prior):
 
     _quantile_nodes = True
 
-    def __init__(self, distributions):
+    def __init__(self, distributions, names=None):
         if not isinstance(distributions, (list, tuple)) or not distributions:
             raise ValueError(
                 "prior must be a non-empty list of frozen scipy.stats "
                 "distributions, one per parameter."
             )
+        self.names = check_parameter_names(names, len(distributions))
+        where = [f"prior[{i}]" for i in range(len(distributions))]
+        if self.names is not None:
+            where = [f"prior[{name!r}]" for name in self.names]
         self.distributions = [
-            check_univariate(d, f"prior[{i}]") for i, d in enumerate(distributions)
+            check_univariate(d, w) for d, w in zip(distributions, where, strict=True)
         ]
         self._dim = len(self.distributions)
 
     def __repr__(self):
         inner = ", ".join(describe_univariate(d) for d in self.distributions)
+        if self.names is not None:
+            return f"IndependentPrior([{inner}], names={list(self.names)!r})"
         return f"IndependentPrior([{inner}])"
 
     def _is_gaussian_1d(self):
@@ -184,6 +201,8 @@ class GaussianPrior(Prior):
     """
 
     _quantile_nodes = True
+    #: Unnamed parameters (see the module docstring).
+    names = None
 
     def __init__(self, distribution):
         if not isinstance(distribution, _MVN_FROZEN):
@@ -294,6 +313,9 @@ class GenericPrior(Prior):
     >>> float(prior.logpdf([0.0, 0.0])[0]) > float(prior.logpdf([3.0, 0.0])[0])
     True
     """
+
+    #: Unnamed parameters (see the module docstring).
+    names = None
 
     def __init__(self, distribution, dim=None):
         if callable(getattr(distribution, "icdf", None)) and not callable(
@@ -413,9 +435,11 @@ def check_prior(prior, n_parameters=None):
 
     Parameters
     ----------
-    prior : list, frozen distribution, multivariate_normal, object or Prior
+    prior : list, dict, frozen distribution, multivariate_normal, object or Prior
         A list (or tuple) of frozen continuous ``scipy.stats`` univariate
-        distributions, independent, one per parameter; a single one (one
+        distributions, independent, one per parameter; a dict ``{name:
+        distribution}`` of them, which also names the parameters (kept as
+        ``names``, in the dict's order); a single one (one
         parameter); a frozen ``scipy.stats.multivariate_normal``; any
         object with ``logpdf`` and ``rvs`` methods (see
         :class:`GenericPrior`); or a :class:`Prior`, returned as is.
@@ -445,6 +469,8 @@ def check_prior(prior, n_parameters=None):
     IndependentPrior([norm(loc=50000, scale=10000)])
     >>> check_prior(multivariate_normal([1.0, 2.0], [[1.0, 0.0], [0.0, 4.0]]))
     GaussianPrior(mean=[1., 2.], cov=[[1., 0.], [0., 4.]])
+    >>> check_prior({"E": uniform(20e3, 80e3), "I": norm(2.0, 0.1)}).names
+    ('E', 'I')
     >>> check_prior([uniform(0, 1)], n_parameters=2)
     Traceback (most recent call last):
     ...
@@ -462,6 +488,10 @@ def check_prior(prior, n_parameters=None):
         )
     elif isinstance(prior, (list, tuple)):
         result = _independent_from_list(prior, n_parameters)
+    elif isinstance(prior, Mapping):
+        result = _independent_from_list(
+            list(prior.values()), n_parameters, names=list(prior.keys())
+        )
     elif isinstance(prior, (stats.rv_continuous, stats.rv_discrete)) or (
         is_frozen_univariate(prior)
     ):
@@ -497,12 +527,12 @@ def _check_n_parameters(n_parameters):
         )
 
 
-def _independent_from_list(prior, n_parameters):
+def _independent_from_list(prior, n_parameters, names=None):
     """An :class:`IndependentPrior` from a list of distributions, one a parameter."""
     if not prior:
         raise ValueError(
-            "prior is an empty list; give one frozen scipy.stats "
-            "distribution per calibration parameter."
+            f"prior is an empty {'list' if names is None else 'dict'}; give one "
+            "frozen scipy.stats distribution per calibration parameter."
         )
     if n_parameters is not None and len(prior) != n_parameters:
         raise ValueError(
@@ -510,4 +540,4 @@ def _independent_from_list(prior, n_parameters):
             f"{n_parameters} calibration parameters; give one distribution "
             "per parameter."
         )
-    return IndependentPrior(list(prior))
+    return IndependentPrior(list(prior), names=names)

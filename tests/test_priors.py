@@ -558,3 +558,52 @@ def test_mass_inside_generic_uses_fixed_draws():
 def test_mass_inside_rejects_bad_boxes(lower, upper, match):
     with pytest.raises(ValueError, match=match):
         independent().mass_inside(lower, upper)
+
+
+# --- named parameters: a dict prior ------------------------------------------
+
+
+def test_dict_prior_names_the_parameters_in_order():
+    prior = check_prior({"E": stats.uniform(20e3, 80e3), "I": stats.norm(2.0, 0.1)})
+    assert isinstance(prior, IndependentPrior)
+    assert prior.names == ("E", "I")
+    assert prior.dim == 2
+    listed = check_prior([stats.uniform(20e3, 80e3), stats.norm(2.0, 0.1)])
+    np.testing.assert_array_equal(prior.bounds(), listed.bounds())
+    np.testing.assert_array_equal(
+        prior.rvs(5, random_state=0), listed.rvs(5, random_state=0)
+    )
+    assert "names=['E', 'I']" in repr(prior)
+
+
+def test_unnamed_priors_have_no_names():
+    assert independent().names is None
+    assert gaussian().names is None
+    assert check_prior(stats.norm(0, 1)).names is None
+    assert check_prior(stats.multivariate_t([0.0, 0.0], np.eye(2))).names is None
+
+
+@pytest.mark.parametrize(
+    "prior, error, match",
+    [
+        ({}, ValueError, "empty dict"),
+        ({1: stats.norm(0, 1)}, TypeError, "non-empty strings"),
+        ({"": stats.norm(0, 1)}, TypeError, "non-empty strings"),
+        ({"E": stats.norm}, TypeError, r"prior\['E'\] is the unfrozen"),
+    ],
+)
+def test_dict_prior_errors(prior, error, match):
+    with pytest.raises(error, match=match):
+        check_prior(prior)
+
+
+def test_dict_prior_checks_the_number_of_parameters():
+    with pytest.raises(ValueError, match="2 calibration parameters"):
+        check_prior({"E": stats.norm(0, 1)}, n_parameters=2)
+
+
+def test_independent_prior_rejects_duplicate_or_miscounted_names():
+    with pytest.raises(ValueError, match="twice"):
+        IndependentPrior([stats.norm(0, 1), stats.norm(0, 1)], names=["E", "E"])
+    with pytest.raises(ValueError, match="1 name"):
+        IndependentPrior([stats.norm(0, 1), stats.norm(0, 1)], names=["E"])
