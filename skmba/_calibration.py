@@ -57,6 +57,12 @@ from skmba._simulations import (
     collect_simulations,
     given_simulations,
 )
+from skmba._summary import (
+    calibration_table,
+    calibration_text,
+    inference_data,
+    parameter_names,
+)
 from skmba._validation import (
     Boolean,
     Callable,
@@ -113,10 +119,12 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         or an instance of a module-level class, not a lambda or a local
         function). It is not needed after ``fit``: ``set_params(
         simulator=None)`` keeps a fitted calibrator working (see Notes).
-    prior : list of frozen scipy.stats distributions, frozen multivariate_normal \
-            or object with ``logpdf``/``rvs``, default=None
-        Prior of the ``r`` calibration parameters. None means uniform over the
-        range of ``theta_sim`` (only with precomputed simulations).
+    prior : list or dict of frozen scipy.stats distributions, frozen \
+            multivariate_normal or object with ``logpdf``/``rvs``, default=None
+        Prior of the ``r`` calibration parameters. A dict ``{name:
+        distribution}`` also names them (``parameter_names_``). None means
+        uniform over the range of ``theta_sim`` (only with precomputed
+        simulations).
     n_simulations : int, default=None
         Runs of ``simulator`` (default ``10 * (d + r)``).
     model_kernel, discrepancy_kernel : sklearn Kernel, default=None
@@ -208,10 +216,21 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         The MCMC draws after burn-in chain by chain, in user units, for trace
         plots; ``theta_samples_`` is ``theta_chains_.reshape(-1, r)``. Only
         with MCMC.
+    theta_log_posterior_ : ndarray of shape (n_chains, n_samples)
+        :meth:`log_posterior` at each draw of ``theta_chains_``; only with
+        MCMC.
     theta_mean_ : ndarray of shape (r,)
     theta_cov_ : ndarray of shape (r, r)
     acceptance_rate_, rhat_, ess_ : ndarray
-        MCMC diagnostics (n_chains,), (r,), (r,); only with MCMC.
+        MCMC diagnostics (n_chains,), (r,), (r,); only with MCMC. ``rhat_``
+        and ``ess_`` are the rank-normalised split R-hat and the bulk
+        effective sample size, equal to ArviZ's ``rhat`` and ``ess(method=
+        "bulk")`` (see the User Guide).
+    parameter_names_ : list of str
+        The names of the calibration parameters: the keys of a dict prior,
+        else ``theta0, theta1, ...``.
+    X_obs_, y_obs_ : ndarray
+        The field data of ``fit`` (for :meth:`to_inference_data`).
     theta_nodes_, theta_weights_ : ndarray
         The posterior quadrature (only with quadrature).
     prior_ : skmba._priors.Prior
@@ -425,6 +444,8 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
             )
         check_simulation_design(X, prior, sims)
         return dict(
+            X=X,
+            y=Y[:, 0] if np.ndim(y) == 1 else Y,
             Y_ndim=np.ndim(y),
             prior=prior,
             sims=sims,
@@ -443,7 +464,18 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         )
 
     def _set_fitted(
-        self, Y_ndim, prior, sims, scaler, emulator, disc, log_post, posterior, rule
+        self,
+        X,
+        y,
+        Y_ndim,
+        prior,
+        sims,
+        scaler,
+        emulator,
+        disc,
+        log_post,
+        posterior,
+        rule,
     ):
         """Every fitted attribute, in one place (user units)."""
         for name in (
@@ -451,12 +483,15 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
             "rhat_",
             "ess_",
             "theta_chains_",
+            "theta_log_posterior_",
             "theta_nodes_",
             "theta_weights_",
         ):
             self.__dict__.pop(name, None)
         self._y_ndim = Y_ndim
         self.prior_ = prior
+        self.parameter_names_ = parameter_names(prior)
+        self.X_obs_, self.y_obs_ = X, y
         self.X_sim_, self.theta_sim_, self.y_sim_ = sims.X, sims.theta, sims.y
         self.X_mean_, self.X_scale_ = scaler.X_mean, scaler.X_scale
         self.theta_offset_, self.theta_scale_ = scaler.theta_offset, scaler.theta_scale
@@ -472,6 +507,7 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
             self.theta_nodes_, self.theta_weights_ = posterior.nodes, posterior.weights
         else:
             self.theta_chains_ = posterior.chains
+            self.theta_log_posterior_ = posterior.log_density
             self.acceptance_rate_ = posterior.acceptance_rate
             self.rhat_, self.ess_ = posterior.rhat, posterior.ess
         self.global_model_ = log_post.model
@@ -525,6 +561,77 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
             mean = mean[:, 0]
             std = None if std is None else std[:, 0]
         return mean if std is None else (mean, std)
+
+    # ------------------------------------------------ summary and ArviZ
+    def to_inference_data(self, *, n_prior_draws=None, random_state=0):
+        """The posterior, prior and field data as an ArviZ object.
+
+        Built with ``arviz.from_dict``: an ``InferenceData`` with ArviZ 0.x,
+        a ``DataTree`` with ArviZ 1.x. Groups:
+
+        * ``posterior``: one variable per name of ``parameter_names_``, of
+          shape (chain, draw) = ``(n_chains, n_samples)`` from
+          ``theta_chains_``. With quadrature (one parameter) it holds the
+          draws ``theta_samples_`` in a random order as one pseudo-chain of
+          shape (1, n_samples); its ``note`` attribute says they are
+          independent draws, not a chain.
+        * ``sample_stats`` (MCMC only): ``lp``, the log posterior
+          (:meth:`log_posterior`) at each draw, and ``acceptance_rate``,
+          each chain's rate repeated over its draws.
+        * ``prior``: draws of ``prior_`` (one pseudo-chain), same names.
+        * ``observed_data`` and ``constant_data``: the field responses
+          (``response_names_`` when recorded, else ``y0, y1, ...``) and the
+          field inputs (``feature_names_in_``, else ``x0, x1, ...``), along
+          the dimension ``observation``.
+
+        Parameters
+        ----------
+        n_prior_draws : int, default=None
+            Prior draws; None means as many as posterior draws.
+        random_state : int, Generator or None, default=0
+            Seeds the prior draws (and the order of quadrature draws).
+
+        Returns
+        -------
+        arviz.InferenceData or xarray.DataTree
+
+        Raises
+        ------
+        ImportError
+            Without ArviZ: install the extra, ``pip install "skmba[arviz]"``.
+        """
+        check_is_fitted(self, "theta_mean_")
+        return inference_data(self, n_prior_draws, random_state)
+
+    def summary(self, kind="table"):
+        """The posterior of each calibration parameter.
+
+        Parameters
+        ----------
+        kind : {"table", "text"}, default="table"
+            ``"table"``: one row per parameter (``parameter_names_``) with
+            the columns ``mean``, ``sd`` (``theta_mean_`` and the square
+            roots of the diagonal of ``theta_cov_``), ``2.5%`` and
+            ``97.5%`` (quantiles of ``theta_samples_``), ``prior_mean``,
+            ``prior_sd``, ``sd_ratio`` (posterior over prior sd: near 1,
+            the data taught little), ``r_hat`` and ``ess_bulk`` (``rhat_``,
+            ``ess_``; NaN with quadrature) and, when the calibrator has
+            ``identifiability_``, ``identifiability``. ``"text"``: the same
+            on one line, for logs.
+
+        Returns
+        -------
+        pandas.DataFrame, numpy structured array or str
+            A DataFrame indexed by parameter name when pandas is installed,
+            else a structured array with a first field ``parameter``; a
+            string for ``kind="text"``.
+        """
+        check_is_fitted(self, "theta_mean_")
+        if kind == "text":
+            return calibration_text(self)
+        if kind != "table":
+            raise ValueError(f'kind must be "table" or "text"; got {kind!r}.')
+        return calibration_table(self)
 
     def predict(self, X, return_std=False):
         """Calibrated prediction of a new field measurement (module 4).

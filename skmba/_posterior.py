@@ -351,6 +351,9 @@ class PosteriorResult:
     chains : ndarray of shape (n_chains, n_samples, r) or None
     acceptance_rate, rhat, ess : ndarray or None
         MCMC diagnostics.
+    log_density : ndarray of shape (n_chains, n_samples) or None
+        The log posterior (:class:`LogPosterior`, user units, up to a
+        constant) at each draw of ``chains``; MCMC only.
     """
 
     method: str
@@ -364,6 +367,7 @@ class PosteriorResult:
     acceptance_rate: np.ndarray | None = None
     rhat: np.ndarray | None = None
     ess: np.ndarray | None = None
+    log_density: np.ndarray | None = None
 
     def summary(self, seconds):
         """One line for the progress log: method, time, mean, sd, diagnostics."""
@@ -624,6 +628,11 @@ def posterior_by_mcmc(
         verbose=verbose,
     )
     chains = log_posterior.from_u(result.samples)
+    # The chains' log density is of the sampling coordinates u: take off the
+    # Jacobian of the log coordinates to get the log posterior of theta.
+    log_density = result.log_density - np.sum(
+        np.log(chains[..., log_posterior.log_dims]), axis=-1
+    )
     for c, chain in enumerate(chains):
         say(
             f"module 3: chain {c} done: acceptance {result.acceptance_rate[c]:.2f}"
@@ -637,4 +646,5 @@ def posterior_by_mcmc(
         acceptance_rate=result.acceptance_rate,
         rhat=result.rhat,
         ess=result.ess,
+        log_density=log_density,
     )
