@@ -55,6 +55,7 @@ from skmba._preposterior import (
 from skmba._priors import check_prior
 from skmba._search import all_subsets, check_max_size, genetic, greedy_forward
 from skmba._subset_likelihood import FieldDesignEmulator
+from skmba._summary import design_table, jackknife_mcse
 from skmba._validation import (
     Boolean,
     Count,
@@ -196,6 +197,9 @@ class PreposteriorDesigner(BaseEstimator):
         units, for each subset.
     scores_ : ndarray of shape (n_subsets,)
         The criterion of each subset; lower is better.
+    scores_mcse_ : ndarray of shape (n_subsets,)
+        Monte Carlo standard error of each score: the jackknife over the
+        replicates (see :meth:`summary`); NaN when ``n_mc=1``.
     best_subset_ : tuple
         The subset with the lowest score.
     support_ : ndarray of shape (q,), dtype=bool
@@ -573,6 +577,7 @@ class PreposteriorDesigner(BaseEstimator):
         self.subsets_ = subsets
         self.preposterior_cov_ = covs.mean(axis=1)
         self.scores_ = np.array([score(c) for c in self.preposterior_cov_])
+        self.scores_mcse_ = jackknife_mcse(covs, score)
         running = np.cumsum(covs, axis=1) / np.arange(1, self.n_mc + 1)[:, None, None]
         self.convergence_ = np.array(
             [[score(c) for c in per_subset] for per_subset in running]
@@ -590,6 +595,34 @@ class PreposteriorDesigner(BaseEstimator):
         if self.verbose:
             elapsed = time.perf_counter() - started
             print(f"[PreposteriorDesigner] {message} ({elapsed:.1f} s)")
+
+    def summary(self, response_names=None):
+        """The scored sensor subsets, best (lowest score) first.
+
+        Parameters
+        ----------
+        response_names : sequence of str, default=None
+            Names of the ``q`` responses; None takes ``response_names_``
+            when the designer records them, else ``y0, y1, ...``.
+
+        Returns
+        -------
+        pandas.DataFrame or numpy structured array
+            One row per subset of ``subsets_``, indexed by rank (1 = best;
+            a first field ``rank`` without pandas), with the columns
+            ``subset`` (the response names joined by ", "),
+            ``n_responses``, ``score`` (``scores_``) and ``mcse``
+            (``scores_mcse_``). The Monte Carlo standard error is the
+            jackknife estimate over the ``n_mc`` replicates: with ``s_(i)``
+            the criterion of the mean posterior covariance without
+            replicate ``i``, ``sqrt((n_mc - 1) / n_mc * sum_i (s_(i) -
+            mean s_(.))**2)``; for ``criterion="trace"`` it is the standard
+            error of the mean of the per-replicate criteria. Two subsets
+            see the same replicates, so the difference of their scores is
+            usually known better than these errors suggest.
+        """
+        check_is_fitted(self, "scores_")
+        return design_table(self, response_names)
 
     def score_subset(self, subset):
         """The criterion of a scored subset (lower is better).
