@@ -1,5 +1,7 @@
 """Tests of the convergence diagnostics: rank-normalised split-R-hat and ESS."""
 
+import warnings
+
 import numpy as np
 import pytest
 from scipy import signal, stats
@@ -116,3 +118,53 @@ def test_check_diagnostics_warns_on_unmixed_chains():
     assert len(record) == len(messages)
     with pytest.raises(ValueError, match="names"):
         check_diagnostics(result, names=["a", "b"])
+
+
+# --- agreement with ArviZ (rank-normalised split R-hat, bulk ESS) ------------
+
+
+def arviz():
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FutureWarning)  # ArviZ 0.x announces 1.0
+        return pytest.importorskip("arviz")
+
+
+def ar1_chains(rho, n_chains, n_draws, seed):
+    """Stationary Gaussian AR(1) chains with unit marginal variance."""
+    rng = np.random.default_rng(seed)
+    innovations = rng.normal(size=(n_chains, n_draws)) * np.sqrt(1 - rho**2)
+    first = rng.normal(size=n_chains)
+    return signal.lfilter(
+        [1.0], [1.0, -rho], innovations, axis=1, zi=rho * first[:, np.newaxis]
+    )[0]
+
+
+KNOWN_ANSWER_CHAINS = {
+    "iid normal": (np.random.default_rng(7).normal(size=(4, 1000)), 4000),
+    "AR(1) rho=0.5": (ar1_chains(0.5, 4, 2000, 8), 8000 * 0.5 / 1.5),
+    "AR(1) rho=0.9": (ar1_chains(0.9, 4, 5000, 9), 20000 * 0.1 / 1.9),
+    # agreement only: the middle draw dropped by the split; unmixed chains
+    "odd length": (np.random.default_rng(10).normal(size=(3, 301)), None),
+    "shifted chain": (np.random.default_rng(11).normal(size=(2, 400)) + 1.0, None),
+}
+KNOWN_ANSWER_CHAINS["shifted chain"][0][0] -= 1.0
+
+
+@pytest.mark.parametrize("name", list(KNOWN_ANSWER_CHAINS))
+def test_rhat_and_ess_equal_arviz(name):
+    az = arviz()
+    chains, theory = KNOWN_ANSWER_CHAINS[name]
+    assert split_rhat(chains) == pytest.approx(az.rhat(chains, method="rank"), abs=1e-6)
+    assert ess_bulk(chains) == pytest.approx(az.ess(chains, method="bulk"), abs=1e-6)
+    if theory is not None:  # ESS = N (1 - rho) / (1 + rho) for AR(1), N for iid draws
+        assert ess_bulk(chains) == pytest.approx(theory, rel=0.15)
+
+
+def test_one_chain_rhat_is_kept_where_arviz_gives_nan():
+    az = arviz()
+    chain = np.random.default_rng(12).normal(size=(1, 500))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        assert np.isnan(az.rhat(chain, method="rank"))
+    assert split_rhat(chain) == pytest.approx(1.0, abs=0.02)
+    assert ess_bulk(chain) == pytest.approx(az.ess(chain, method="bulk"), abs=1e-6)
