@@ -185,7 +185,7 @@ def test_gp_prediction_errors(gp):
     X = np.linspace(1e3, 1e4, 5)
     with pytest.raises(TypeError, match="predict"):
         plot_gp_prediction(object(), X)
-    with pytest.raises(ValueError, match="one or two inputs"):
+    with pytest.raises(ValueError, match="fitted on 1 input:"):
         plot_gp_prediction(model, np.zeros((4, 3)))
     with pytest.raises(ValueError, match="response"):
         plot_gp_prediction(model, X, response=2)
@@ -292,7 +292,7 @@ def test_calibrated_components_errors(calibrator, gp, data):
     X = np.linspace(1e3, 1e4, 5)
     with pytest.raises(TypeError, match="ModularBayesCalibrator"):
         plot_calibrated_components(gp[0], X)
-    with pytest.raises(ValueError, match="one design variable"):
+    with pytest.raises(ValueError, match="has 1 design variable:"):
         plot_calibrated_components(calibrator, np.zeros((5, 2)))
     with pytest.raises(ValueError, match="together"):
         plot_calibrated_components(calibrator, X, X_obs=data.X_obs)

@@ -1,8 +1,9 @@
 """Prediction bands of a Gaussian process: :func:`plot_gp_prediction`.
 
-For one input, the mean and the 95 % band of each response along the
-input with the training data; for two inputs, filled contours of the mean
-and of the band's half-width over the plane.
+Along one input, the mean and the 95 % band of each response with the
+training data; for several inputs, along each of them with the others held
+fixed, or, for two inputs, filled contours of the mean and of the band's
+half-width over the plane.
 
 Examples
 --------
@@ -32,7 +33,15 @@ from skmba.plotting._common import (
     import_pyplot,
     labels,
     predict_with_std,
+    recorded_names,
     unit_labels,
+)
+from skmba.plotting._slices import (
+    check_fixed,
+    design_slices,
+    plane_grid,
+    slice_label,
+    varied_inputs,
 )
 
 __all__ = ["plot_gp_prediction"]
@@ -42,6 +51,8 @@ def plot_gp_prediction(
     gp,
     X,
     *,
+    vary=None,
+    fixed=None,
     X_train=None,
     y_train=None,
     response=None,
@@ -53,25 +64,42 @@ def plot_gp_prediction(
 ):
     """Plot the predictions of a Gaussian process with 95 % bands.
 
-    For one input, the mean with the band ``mean ± 1.96 std`` and the
-    training data, one panel per response. For two inputs, per response
-    two filled-contour panels: the mean and the half-width ``1.96 std`` of
-    the 95 % band, with the training inputs marked.
+    Along one input, the mean with the band ``mean ± 1.96 std`` and the
+    training data, one panel per response. For several inputs, the same
+    along each varied input with the others held fixed (a slice): one
+    column of panels per varied input. For two inputs both spanned by
+    ``X`` (and ``vary=None``), per response two filled-contour panels over
+    the plane: the mean and the half-width ``1.96 std`` of the 95 % band,
+    with the training inputs marked.
 
     Parameters
     ----------
     gp : estimator
         A fitted :class:`~skmba.MultiResponseGP`, or any regressor with
-        ``predict(X, return_std=True)``. The band of a ``MultiResponseGP``
-        is that of the latent (noise-free) process unless ``include_noise``.
-    X : array-like of shape (s,), (s, 1) or (s, 2)
-        Where to predict: a 1-D grid (any order), or points of the plane
-        (scattered or a flattened grid; contours are drawn on their
-        triangulation).
+        ``predict(X, return_std=True)`` (a fitted
+        :class:`~skmba.ModularBayesCalibrator` draws its calibrated
+        prediction). The band of a ``MultiResponseGP`` is that of the latent
+        (noise-free) process unless ``include_noise``.
+    X : array-like of shape (s,) or (s, d)
+        Where to predict. One input: a grid (any order). Several inputs:
+        points whose columns give the values of each varied input and
+        whose ranges give the default fixed values (their middles); for a
+        plane, a flattened grid (its values are used) or scattered points
+        (a regular 50 x 50 grid over their bounding box).
+    vary : None, "all", int, str or list, default=None
+        The inputs to draw along (indices, or names in ``input_names``),
+        one column of panels each, the other inputs held at ``fixed``.
+        None: the inputs that ``X`` spans and ``fixed`` does not hold, or
+        the plane of contours when there are two inputs and ``X`` spans
+        both. ``"all"``: every input that ``X`` spans.
+    fixed : dict, default=None
+        ``{input (index or name): value}``: where the inputs not varied
+        are held. By default, the middle of their range in ``X`` (so a
+        slice given as ``X`` is drawn as it is).
     X_train : array-like of shape (n, d), default=None
-        Training inputs to mark.
+        Training inputs to mark (projected on the varied input of a slice).
     y_train : array-like of shape (n,) or (n, q), default=None
-        Training responses, drawn as points for one input (needs
+        Training responses, drawn as points along the varied input (needs
         ``X_train``). Without them, the training inputs are marked along
         the bottom of the panels.
     response : int or str, default=None
@@ -83,16 +111,24 @@ def plot_gp_prediction(
     names, units : list of str, default=None
         Names and units of the ``q`` responses.
     input_names : list of str, default=None
-        Labels of the inputs (with their units), e.g. ``["force [N]"]``.
+        Labels of the inputs (with their units), e.g. ``["force [N]"]``;
+        None takes the ``feature_names_in_`` of a ``gp`` fitted on a
+        DataFrame, else ``x0, x1, ...``.
     ax : Axes or array of Axes, default=None
-        Where to draw: one Axes per response drawn (one input) or an array
-        of shape (n_responses_drawn, 2) (two inputs). None creates a figure.
+        Where to draw: an array of shape (n_responses_drawn, n_varied) for
+        slices or (n_responses_drawn, 2) for a plane. None creates a figure.
 
     Returns
     -------
     ax_or_fig : Axes or Figure
-        The Axes when one panel is drawn (one input and one response),
+        The Axes when one panel is drawn (one slice and one response),
         otherwise the Figure.
+
+    Raises
+    ------
+    ValueError
+        If ``X`` has another number of columns than ``gp`` has inputs, or
+        spans none of the inputs to vary.
 
     Examples
     --------
@@ -112,50 +148,77 @@ def plot_gp_prediction(
     ...                         names=["sine", "square"])
     >>> ax.get_ylabel()
     'square'
+
+    Three inputs, along the second one with the others held:
+
+    >>> X3 = np.random.default_rng(0).uniform(size=(30, 3))
+    >>> y3 = np.sin(3 * X3[:, 0]) + X3[:, 1] ** 2 + X3[:, 2]
+    >>> gp3 = MultiResponseGP(random_state=0).fit(X3, y3)
+    >>> ax = plot_gp_prediction(gp3, X3, vary=1, fixed={0: 0.5, 2: 0.1})
+    >>> print(ax.get_xlabel())
+    x1
+    (x0 = 0.5, x2 = 0.1)
     """
     X = _check_gp_and_inputs(gp, X)
     d = X.shape[1]
     import_pyplot()
-    mean, std = _predicted_bands(gp, X, include_noise)
+    if input_names is None:
+        input_names = recorded_names(gp, "feature_names_in_", d, "inputs")
+    input_names = labels(input_names, d, "x", "inputs")
+    fixed = check_fixed(fixed, input_names)
+    varied = varied_inputs(X, vary, fixed, input_names, plane=True)
+    if varied == "plane":
+        u0, u1, points = plane_grid(X)
+        slices = None
+    else:
+        slices = design_slices(X, varied, fixed)
+        points = np.vstack([s.points for s in slices])
+    mean, std = _predicted_bands(gp, points, include_noise)
     q = mean.shape[1]
     names = labels(names, q, "y", "responses")
     units = unit_labels(units, q, "responses")
-    input_names = labels(input_names, d, "x", "inputs")
     drawn = _drawn_responses(response, names)
     X_train, y_train = _training_data(X_train, y_train, d, q)
     response_labels = [
         axis_label(name, unit) for name, unit in zip(names, units, strict=True)
     ]
-    if d == 1:
-        band_label = "95 % band, new measurement" if include_noise else "95 % band"
-        return _draw_along_input(
-            ax,
-            X[:, 0],
-            (mean, std),
-            drawn,
-            (X_train, y_train),
-            response_labels,
-            input_names[0],
-            band_label,
+    if slices is None:
+        shape = (len(u1), len(u0))
+        grids = (u0, u1, mean.reshape(*shape, q), std.reshape(*shape, q))
+        return _draw_over_plane(
+            ax, grids, drawn, X_train, names, response_labels, input_names
         )
-    return _draw_over_plane(
-        ax, X, (mean, std), drawn, X_train, names, response_labels, input_names
+    band_label = "95 % band, new measurement" if include_noise else "95 % band"
+    ends = np.cumsum([len(s.points) for s in slices])[:-1]
+    bands = list(zip(np.split(mean, ends), np.split(std, ends), strict=True))
+    return _draw_along_inputs(
+        ax,
+        slices,
+        bands,
+        drawn,
+        (X_train, y_train),
+        response_labels,
+        input_names,
+        band_label,
     )
 
 
 def _check_gp_and_inputs(gp, X):
-    """``X`` as an (s, 1) or (s, 2) array, for a ``gp`` that can predict."""
+    """``X`` as an (s, d) array, for a ``gp`` that can predict."""
     if not callable(getattr(gp, "predict", None)):
         raise TypeError(
             "gp must be a fitted regressor with predict(X, return_std=True), "
             f"such as skmba.MultiResponseGP; got {type(gp).__name__}."
         )
     X = as_inputs(X)
-    d = X.shape[1]
-    if d > 2:
+    # Set by every fitted scikit-learn estimator; other regressors are taken
+    # at their word that X fits them.
+    n_features = getattr(gp, "n_features_in_", None)
+    if n_features is not None and X.shape[1] != n_features:
         raise ValueError(
-            f"plot_gp_prediction draws one or two inputs; X has {d} columns. "
-            "Fix the other inputs and wrap the GP, or plot a slice."
+            f"X has {X.shape[1]} columns but the GP was fitted on {n_features} "
+            f"input{'s' * (n_features != 1)}: give a value of every input (see "
+            "vary and fixed)."
         )
     return X
 
@@ -210,59 +273,71 @@ def _training_data(X_train, y_train, d, q):
     return X_train, y_train
 
 
-def _draw_along_input(
-    ax, x, bands, drawn, training, response_labels, input_name, band_label
+def _draw_along_inputs(
+    ax, slices, bands, drawn, training, response_labels, input_names, band_label
 ):
-    """One panel per drawn response: band along the input, training data."""
-    n = len(drawn)
+    """Panels (drawn responses, slices): the band along each varied input."""
+    n, m = len(drawn), len(slices)
     new_figure = ax is None
-    axes = axes_grid(ax, (n, 1), (6.4, 1.0 + 2.6 * n), sharex=True)[:, 0]
-    order = np.argsort(x)
-    mean, std = bands
-    for a, k in zip(axes, drawn, strict=True):
-        draw_band(a, x[order], mean[order, k], std[order, k], "C0", band_label)
-        _mark_training_along_input(a, *training, k)
-        a.set_ylabel(response_labels[k])
-        if not new_figure or a is axes[-1]:  # a new figure shares x
-            a.set_xlabel(input_name)
-        a.legend(fontsize="small")
-    return axes[0] if n == 1 else axes[0].figure
+    share = {"sharex": "col", "sharey": "row"} if m > 1 else {"sharex": True}
+    axes = axes_grid(ax, (n, m), (6.4 if m == 1 else 4.4 * m, 1.0 + 2.6 * n), **share)
+    projected = len(input_names) > 1
+    for c, (design_slice, (mean, std)) in enumerate(zip(slices, bands, strict=True)):
+        x = design_slice.x
+        for row, k in enumerate(drawn):
+            a = axes[row, c]
+            draw_band(a, x, mean[:, k], std[:, k], "C0", band_label)
+            _mark_training(a, *training, k, design_slice.vary, projected)
+            if c == 0 or not new_figure:
+                a.set_ylabel(response_labels[k])
+            if not new_figure or row == n - 1:  # a new figure shares x
+                a.set_xlabel(slice_label(design_slice, input_names))
+            if m == 1 or (row == 0 and c == 0):
+                a.legend(fontsize="small")
+    return axes[0, 0] if n == 1 and m == 1 else axes[0, 0].figure
 
 
-def _mark_training_along_input(a, X_train, y_train, k):
-    """Training points of response ``k``, or ticks at the training inputs."""
+def _mark_training(a, X_train, y_train, k, j, projected):
+    """Training points of response ``k`` along input ``j``, or ticks at the
+    training inputs; ``projected`` when the other inputs vary among them."""
+    suffix = " (projected)" if projected else ""
     if y_train is not None:
         a.plot(
-            X_train[:, 0],
+            X_train[:, j],
             y_train[:, k],
             "o",
             color="C3",
             markersize=4,
-            label="training data",
+            label="training data" + suffix,
         )
     elif X_train is not None:
         a.plot(
-            X_train[:, 0],
+            X_train[:, j],
             np.zeros(len(X_train)),
             "|",
             color="C3",
             markersize=10,
             transform=a.get_xaxis_transform(),
-            label="training inputs",
+            label="training inputs" + suffix,
         )
 
 
-def _draw_over_plane(ax, X, bands, drawn, X_train, names, response_labels, inputs):
-    """Per drawn response, contours of the mean and of the band half-width."""
+def _draw_over_plane(ax, grids, drawn, X_train, names, response_labels, inputs):
+    """Per drawn response, contours of the mean and of the band half-width.
+
+    ``grids`` are the axes ``u0`` (n0,), ``u1`` (n1,) of a rectangular grid
+    and the mean and std (n1, n0, q) on it: contours of gridded values need
+    no triangulation.
+    """
+    u0, u1, mean, std = grids
     axes = axes_grid(ax, (len(drawn), 2), (9.0, 0.6 + 3.4 * len(drawn)))
-    mean, std = bands
     for row, k in zip(axes, drawn, strict=True):
         panels = (
-            (mean[:, k], f"{names[k]}: mean", "viridis"),
-            (Z95 * std[:, k], f"{names[k]}: 95 % half-width", "YlOrRd"),
+            (mean[:, :, k], f"{names[k]}: mean", "viridis"),
+            (Z95 * std[:, :, k], f"{names[k]}: 95 % half-width", "YlOrRd"),
         )
         for a, (values, title, cmap) in zip(row, panels, strict=True):
-            filled = a.tricontourf(X[:, 0], X[:, 1], values, levels=15, cmap=cmap)
+            filled = a.contourf(u0, u1, values, levels=15, cmap=cmap)
             colorbar = a.figure.colorbar(filled, ax=a)
             colorbar.set_label(response_labels[k])
             if X_train is not None:
@@ -279,5 +354,5 @@ def _draw_over_plane(ax, X, bands, drawn, X_train, names, response_labels, input
             a.set_title(title)
             a.set_xlabel(inputs[0])
             a.set_ylabel(inputs[1])
-    import_pyplot().setp(axes, xlim=(X[:, 0].min(), X[:, 0].max()))
+    import_pyplot().setp(axes, xlim=(u0[0], u0[-1]), ylim=(u1[0], u1[-1]))
     return axes[0, 0].figure

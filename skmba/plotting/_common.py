@@ -56,6 +56,27 @@ def labels(names, n, prefix, what):
     return _as_list(names, n, "names", what, str)
 
 
+def recorded_names(estimator, attribute, n, what):
+    """The ``n`` names a fitted estimator recorded in ``attribute``, or None.
+
+    Such attributes (``parameter_names_``, ``response_names_``,
+    ``feature_names_in_``) are optional: estimators fitted (and pickled)
+    before they were added, fitted without names, or the stand-ins of the
+    tests lack them. When present they must have ``n`` entries.
+    """
+    # Only the absence of the attribute is tolerated, not a wrong length.
+    names = getattr(estimator, attribute, None)
+    if names is None:
+        return None
+    names = [str(name) for name in names]
+    if len(names) != n:
+        raise ValueError(
+            f"{type(estimator).__name__}.{attribute} has {len(names)} entries "
+            f"but there are {n} {what}."
+        )
+    return names
+
+
 def unit_labels(units, n, what):
     """``n`` unit strings ("" when none)."""
     if units is None:
