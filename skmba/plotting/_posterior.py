@@ -26,8 +26,15 @@ from skmba.plotting._common import (
     axis_label,
     check_true_value,
     labels,
+    recorded_names,
     short_number,
     unit_labels,
+)
+from skmba.plotting._draws import (
+    DrawnPrior,
+    arviz_groups,
+    posterior_chains,
+    prior_draws,
 )
 
 __all__ = ["plot_posterior"]
@@ -61,19 +68,29 @@ def plot_posterior(
 
     Parameters
     ----------
-    samples_or_calibrator : ModularBayesCalibrator or array-like of shape (n, r)
-        A fitted calibrator (its ``theta_samples_`` and ``prior_`` are used)
-        or posterior draws.
+    samples_or_calibrator : ModularBayesCalibrator, InferenceData or \
+            array-like of shape (n, r)
+        A fitted calibrator (its ``theta_samples_``, ``prior_`` and
+        ``parameter_names_``), an ArviZ object such as the calibrator's
+        :meth:`~skmba.ModularBayesCalibrator.to_inference_data` (the
+        variables of its ``posterior`` group, of dimensions ``(chain,
+        draw)``, are the parameters; its ``prior`` group, when it has the
+        same variables, gives the prior's draws), or posterior draws.
     prior : prior, default=None
         A list of frozen ``scipy.stats`` distributions, a frozen
         ``multivariate_normal`` or an ``skmba`` prior, whose marginal
-        densities are drawn; None uses the calibrator's, if any. The
-        marginals of a prior given only by ``logpdf``/``rvs`` (``r > 1``)
-        are histograms of its draws.
+        densities are drawn; None uses the calibrator's, or the ArviZ
+        object's prior draws, if any. The marginals of a prior given only
+        by ``logpdf``/``rvs`` (``r > 1``) or by draws are histograms of its
+        draws.
     true_value : array-like of shape (r,), default=None
         The true parameters, when known.
-    names, units : list of str, default=None
-        Names and units of the ``r`` parameters.
+    names : list of str, default=None
+        Names of the ``r`` parameters; None takes the calibrator's
+        ``parameter_names_`` or the ArviZ object's variable names, else
+        ``θ0, θ1, ...`` for an array.
+    units : list of str, default=None
+        Units of the ``r`` parameters.
     bins : int, default=40
         Histogram bins per parameter.
     kind : {"scatter", "hist2d"}, default="scatter"
@@ -110,10 +127,19 @@ def plot_posterior(
     4
     >>> fig.axes[2].get_xlabel()
     'E [MPa]'
+
+    From an ArviZ object, named by its variables:
+
+    >>> import arviz
+    >>> idata = arviz.from_dict(posterior={"E": draws[:, 0].reshape(2, 500),
+    ...                                    "I": draws[:, 1].reshape(2, 500)})
+    >>> fig = plot_posterior(idata)
+    >>> fig.axes[2].get_xlabel(), fig.axes[3].get_xlabel()
+    ('E', 'I')
     """
-    samples, prior = _samples_and_prior(samples_or_calibrator, prior)
+    samples, prior, source_names = _samples_and_prior(samples_or_calibrator, prior)
     r = samples.shape[1]
-    names = labels(names, r, "θ", "parameters")
+    names = labels(source_names if names is None else names, r, "θ", "parameters")
     units = unit_labels(units, r, "parameters")
     true_value = _check_options(r, kind, limits, true_value, bins)
     axes = axes_grid(ax, (r, r), (4.8 + 2.4 * (r - 1), 3.4 + 2.4 * (r - 1)))
@@ -137,12 +163,23 @@ def plot_posterior(
 
 
 def _samples_and_prior(samples_or_calibrator, prior):
-    """Posterior draws (n, r) and the prior (or None) from either input."""
+    """Posterior draws (n, r), the prior (or None) and the parameter names
+    (or None) from any input."""
     obj = samples_or_calibrator
-    if hasattr(obj, "theta_samples_"):
+    names = None
+    groups = arviz_groups(obj)
+    if groups is not None:
+        chains, names, _ = posterior_chains(groups)
+        samples = chains.reshape(-1, chains.shape[2])
+        if prior is None:
+            drawn = prior_draws(groups, names)
+            prior = None if drawn is None else DrawnPrior(drawn)
+    elif hasattr(obj, "theta_samples_"):
         samples = np.asarray(obj.theta_samples_, dtype=float)
         if prior is None:
             prior = getattr(obj, "prior_", None)
+        samples = samples.reshape(len(samples), -1)
+        names = recorded_names(obj, "parameter_names_", samples.shape[1], "parameters")
     elif callable(getattr(obj, "fit", None)):
         raise NotFittedError(
             f"This {type(obj).__name__} is not fitted (no theta_samples_): call "
@@ -153,9 +190,9 @@ def _samples_and_prior(samples_or_calibrator, prior):
             samples = np.asarray(obj, dtype=float)
         except (TypeError, ValueError):
             raise TypeError(
-                "plot_posterior needs a fitted ModularBayesCalibrator or an "
-                "array of posterior draws of shape (n, r); got "
-                f"{type(obj).__name__}."
+                "plot_posterior needs a fitted ModularBayesCalibrator, an ArviZ "
+                "InferenceData or an array of posterior draws of shape (n, r); "
+                f"got {type(obj).__name__}."
             ) from None
     if samples.ndim == 1:
         samples = samples[:, None]
@@ -163,9 +200,9 @@ def _samples_and_prior(samples_or_calibrator, prior):
         raise ValueError(
             f"posterior draws must have shape (n, r) with n >= 2; got {samples.shape}."
         )
-    if prior is not None:
+    if prior is not None and not isinstance(prior, DrawnPrior):
         prior = check_prior(prior, n_parameters=samples.shape[1])
-    return samples, prior
+    return samples, prior, names
 
 
 def _check_options(r, kind, limits, true_value, bins):
@@ -275,6 +312,8 @@ def _draw_prior_marginal(a, prior, i, axis_range, bins, prior_draws):
 
 def _prior_marginal(prior, j, grid):
     """Marginal prior density of parameter ``j`` on ``grid`` (None: unknown)."""
+    if isinstance(prior, DrawnPrior):
+        return None
     if prior.dim == 1:
         return np.exp(prior.logpdf(grid[:, None]))
     distributions = getattr(prior, "distributions", None)

@@ -22,7 +22,12 @@ import textwrap
 import numpy as np
 from sklearn.exceptions import NotFittedError
 
-from skmba.plotting._common import import_pyplot, labels, single_axes
+from skmba.plotting._common import (
+    import_pyplot,
+    labels,
+    recorded_names,
+    single_axes,
+)
 
 __all__ = ["plot_convergence", "plot_criterion_by_size", "plot_criterion_vs_bias"]
 
@@ -43,7 +48,8 @@ def plot_criterion_by_size(designer, *, names=None, ax=None):
     designer : PreposteriorDesigner
         Fitted (``subsets_``, ``scores_``, ``n_responses_``).
     names : list of str, default=None
-        Names of the ``q`` responses (``y0, y1, ...``).
+        Names of the ``q`` responses; None takes the designer's
+        ``response_names_`` when it has them, else ``y0, y1, ...``.
     ax : Axes, default=None
         Where to draw; None creates a figure.
 
@@ -68,7 +74,7 @@ def plot_criterion_by_size(designer, *, names=None, ax=None):
     ['B', 'A, B', 'A, B, C']
     """
     subsets, scores, q = _designer_arrays(designer)
-    names = labels(names, q, "y", "responses")
+    names = _response_names(designer, names, q)
     ax = single_axes(ax, (6.4, 4.4))
     sizes = np.array([len(s) for s in subsets])
     best = _best_by_size(subsets, scores)
@@ -120,7 +126,9 @@ def plot_criterion_vs_bias(
         The response indices of each configuration: points are then coloured
         by the number of sensors.
     names : list of str, default=None
-        Names of the responses, for the labels (``y0, y1, ...``).
+        Names of the responses, for the labels; None takes the designer's
+        ``response_names_`` when ``scores`` is a designer that has them,
+        else ``y0, y1, ...``.
     annotate : bool, default=False
         Label each point with its responses (needs ``subsets``).
     ax : Axes, default=None
@@ -182,7 +190,8 @@ def plot_convergence(designer, *, subsets=None, names=None, ax=None):
         The configurations to draw (as response indices, in any order); by
         default the best one of each size, at most 5 (sizes evenly spread).
     names : list of str, default=None
-        Names of the ``q`` responses (``y0, y1, ...``).
+        Names of the ``q`` responses; None takes the designer's
+        ``response_names_`` when it has them, else ``y0, y1, ...``.
     ax : Axes, default=None
         Where to draw; None creates a figure.
 
@@ -206,7 +215,7 @@ def plot_convergence(designer, *, subsets=None, names=None, ax=None):
     ['B', 'A, B']
     """
     all_subsets, scores, q = _designer_arrays(designer, ("convergence_",))
-    names = labels(names, q, "y", "responses")
+    names = _response_names(designer, names, q)
     running = np.asarray(designer.convergence_, dtype=float)
     if running.ndim != 2 or running.shape[1] != len(all_subsets):
         raise ValueError(
@@ -231,6 +240,14 @@ def plot_convergence(designer, *, subsets=None, names=None, ax=None):
     ax.set_ylabel("running " + _criterion_label(designer).split(",")[0])
     ax.legend(fontsize="small", title="responses")
     return ax
+
+
+def _response_names(designer, names, q):
+    """The ``q`` response labels: ``names``, the designer's
+    ``response_names_`` when it has them, or ``y0, y1, ...``."""
+    if names is None:
+        names = recorded_names(designer, "response_names_", q, "responses")
+    return labels(names, q, "y", "responses")
 
 
 def _subset_label(subset, names, width=None):
@@ -285,9 +302,11 @@ def _configurations(scores, bias, subsets, names, annotate):
     """Checked scores, bias, subsets and names of plot_criterion_vs_bias."""
     q = None
     if hasattr(scores, "scores_"):
-        designer_subsets, scores, q = _designer_arrays(scores)
+        designer = scores
+        designer_subsets, scores, q = _designer_arrays(designer)
         if subsets is None:
             subsets = designer_subsets
+        names = _response_names(designer, names, q)
     try:
         scores = np.asarray(scores, dtype=float).reshape(-1)
         bias = np.asarray(bias, dtype=float).reshape(-1)
@@ -304,8 +323,13 @@ def _configurations(scores, bias, subsets, names, annotate):
             raise ValueError(
                 f"subsets has {len(subsets)} entries but scores {len(scores)}."
             )
+        largest = max(max(s) for s in subsets)
         if q is None:
-            q = max(max(s) for s in subsets) + 1 if names is None else len(names)
+            q = largest + 1 if names is None else len(names)
+        if largest >= q:
+            raise ValueError(
+                f"subsets use response {largest} but there are {q} responses (names)."
+            )
         names = labels(names, q, "y", "responses")
     elif annotate:
         raise ValueError("annotate=True needs the subsets.")

@@ -10,8 +10,9 @@ Examples
 >>> import numpy as np
 >>> from skmba.plotting._traces import _chains_of
 >>> fitted = SimpleNamespace(theta_chains_=np.zeros((4, 300, 2)))
->>> _chains_of(fitted).shape
-(4, 300, 2)
+>>> chains, names = _chains_of(fitted)
+>>> chains.shape, names
+((4, 300, 2), None)
 """
 
 import numpy as np
@@ -23,8 +24,10 @@ from skmba.plotting._common import (
     axis_label,
     check_true_value,
     labels,
+    recorded_names,
     unit_labels,
 )
+from skmba.plotting._draws import arviz_groups, posterior_chains
 
 __all__ = ["plot_traces"]
 
@@ -41,12 +44,20 @@ def plot_traces(
 
     Parameters
     ----------
-    chains_or_calibrator : ModularBayesCalibrator or array-like of shape \
-            (n_chains, n_draws, r)
-        A calibrator fitted with ``sampler="mcmc"`` (its ``theta_chains_``)
-        or the draws of each chain after burn-in.
-    names, units : list of str, default=None
-        Names and units of the ``r`` parameters.
+    chains_or_calibrator : ModularBayesCalibrator, InferenceData or \
+            array-like of shape (n_chains, n_draws, r)
+        A calibrator fitted with ``sampler="mcmc"`` (its ``theta_chains_``
+        and ``parameter_names_``), an ArviZ object such as the calibrator's
+        :meth:`~skmba.ModularBayesCalibrator.to_inference_data` (the
+        variables of its ``posterior`` group, of dimensions ``(chain,
+        draw)``, are the parameters) or the draws of each chain after
+        burn-in.
+    names : list of str, default=None
+        Names of the ``r`` parameters; None takes the calibrator's
+        ``parameter_names_`` or the ArviZ object's variable names, else
+        ``θ0, θ1, ...`` for an array.
+    units : list of str, default=None
+        Units of the ``r`` parameters.
     true_value : array-like of shape (r,), default=None
         The true parameters, drawn as horizontal lines.
     ax : Axes or array of Axes of shape (r,), default=None
@@ -59,8 +70,8 @@ def plot_traces(
     Raises
     ------
     ValueError
-        If the calibrator has no chains (one parameter, quadrature posterior)
-        or the array is not 3-D.
+        If the calibrator (or its ArviZ object) has no chains (one
+        parameter, quadrature posterior) or the array is not 3-D.
 
     Examples
     --------
@@ -72,10 +83,18 @@ def plot_traces(
     >>> fig = plot_traces(chains, names=["E", "I"])
     >>> len(fig.axes), len(fig.axes[0].lines)
     (2, 4)
+
+    From an ArviZ object, named by its variables:
+
+    >>> import arviz
+    >>> idata = arviz.from_dict(posterior={"E": chains[..., 0], "I": chains[..., 1]})
+    >>> fig = plot_traces(idata)
+    >>> [ax.get_ylabel() for ax in fig.axes]
+    ['E', 'I']
     """
-    chains = _chains_of(chains_or_calibrator)
+    chains, source_names = _chains_of(chains_or_calibrator)
     n_chains, n_draws, r = chains.shape
-    names = labels(names, r, "θ", "parameters")
+    names = labels(source_names if names is None else names, r, "θ", "parameters")
     units = unit_labels(units, r, "parameters")
     true_value = check_true_value(true_value, r)
     axes = axes_grid(ax, (r, 1), (8.0, 0.8 + 2.2 * r), sharex=True)[:, 0]
@@ -104,9 +123,21 @@ def plot_traces(
 
 
 def _chains_of(chains_or_calibrator):
-    """The chains (n_chains, n_draws, r) of a fitted calibrator or array."""
+    """The chains (n_chains, n_draws, r) of a fitted calibrator, an ArviZ
+    object or an array, and the parameter names (None for an array)."""
     obj = chains_or_calibrator
-    if hasattr(obj, "theta_chains_"):
+    names = None
+    groups = arviz_groups(obj)
+    if groups is not None:
+        chains, names, sampler = posterior_chains(groups)
+        if sampler.startswith("quadrature"):
+            raise ValueError(
+                "This posterior was computed by quadrature (one parameter): its "
+                "draws are independent, not a Markov chain, and have no trace. "
+                "Fit with sampler='mcmc' to get chains, or plot the posterior "
+                "with plot_posterior."
+            )
+    elif hasattr(obj, "theta_chains_"):
         chains = obj.theta_chains_
     elif hasattr(obj, "theta_nodes_"):
         raise ValueError(
@@ -130,11 +161,14 @@ def _chains_of(chains_or_calibrator):
         chains = np.asarray(chains, dtype=float)
     except (TypeError, ValueError):
         raise TypeError(
-            "plot_traces needs a fitted ModularBayesCalibrator or an array of "
-            f"shape (n_chains, n_draws, r); got {type(obj).__name__}."
+            "plot_traces needs a fitted ModularBayesCalibrator, an ArviZ "
+            "InferenceData or an array of shape (n_chains, n_draws, r); got "
+            f"{type(obj).__name__}."
         ) from None
     if chains.ndim != 3:
         raise ValueError(
             f"chains must have shape (n_chains, n_draws, r); got {chains.shape}."
         )
-    return chains
+    if hasattr(obj, "theta_chains_"):
+        names = recorded_names(obj, "parameter_names_", chains.shape[2], "parameters")
+    return chains, names
