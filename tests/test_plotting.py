@@ -597,3 +597,352 @@ def test_sensor_plot_errors(designer):
     bad = SimpleNamespace(**{**vars(designer), "convergence_": np.zeros((5, 3))})
     with pytest.raises(ValueError, match="convergence_ has shape"):
         plot_convergence(bad)
+
+
+# ------------------------------------ several design variables and parameters
+
+
+def analytic_simulator(X, theta):
+    """Two design variables, three parameters (a, b, c), two responses."""
+    x0, x1 = X.T
+    a, b, c = theta.T
+    return np.column_stack([a * x0 + b * x1, c * x0 * x1 + a * x1**2])
+
+
+def analytic_reality(X):
+    truth = np.broadcast_to([1.0, 2.0, 1.0], (len(X), 3))
+    return analytic_simulator(X, truth) + 0.05 * np.sin(3 * X[:, :1])
+
+
+def fit_small(prior, X_obs, y_obs, X_sim, theta_sim, y_sim):
+    cal = ModularBayesCalibrator(
+        prior=prior,
+        n_restarts_optimizer=0,
+        n_samples=200,
+        burn_in=100,
+        n_chains=2,
+        random_state=0,
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # short chains: R-hat and ESS warn
+        return cal.fit(X_obs, y_obs, X_sim=X_sim, theta_sim=theta_sim, y_sim=y_sim)
+
+
+@pytest.fixture(scope="module")
+def cantilever_2x2():
+    """Force and moment, E and I (r = 2), named by a dict prior."""
+    data = make_cantilever(
+        40,
+        15,
+        design_variables=("force", "moment"),
+        parameters=("E", "I"),
+        random_state=0,
+    )
+    prior = dict(zip(data.parameter_names, data.prior, strict=True))
+    cal = fit_small(
+        prior, data.X_obs, data.y_obs, data.X_sim, data.theta_sim, data.y_sim
+    )
+    return data, cal
+
+
+@pytest.fixture(scope="module")
+def analytic_2x3():
+    """Two design variables in [0, 1]^2, three parameters a, b, c (r = 3)."""
+    rng = np.random.default_rng(0)
+    u = stats.qmc.LatinHypercube(d=5, seed=0).random(60)
+    X_sim = u[:, :2]
+    theta_sim = np.column_stack([0.5 + u[:, 2], 1.0 + 2.0 * u[:, 3], 2.0 * u[:, 4]])
+    X_obs = stats.qmc.LatinHypercube(d=2, seed=1).random(15)
+    y_obs = analytic_reality(X_obs) + 0.01 * rng.standard_normal((15, 2))
+    prior = {
+        "a": stats.uniform(0.5, 1.0),
+        "b": stats.uniform(1.0, 2.0),
+        "c": stats.uniform(0.0, 2.0),
+    }
+    y_sim = analytic_simulator(X_sim, theta_sim)
+    cal = fit_small(prior, X_obs, y_obs, X_sim, theta_sim, y_sim)
+    return SimpleNamespace(X_obs=X_obs, y_obs=y_obs), cal
+
+
+def without_warnings(tmp_path, plot, *args, **kwargs):
+    """``plot(*args, **kwargs)`` and its PNG, with warnings as errors."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        out = plot(*args, **kwargs)
+        figure = out if isinstance(out, Figure) else out.figure
+        path = tmp_path / f"{plot.__name__}.png"
+        figure.savefig(path, dpi=40)
+    assert path.stat().st_size > 0
+    return out
+
+
+def test_gp_prediction_on_a_slice_of_two_design_variables(cantilever_2x2, tmp_path):
+    """The calibrated prediction along the force at one moment: a line in
+    the plane, which a Delaunay triangulation (qhull) cannot handle."""
+    data, cal = cantilever_2x2
+    X = np.column_stack([np.linspace(1e4, 1e3, 20), np.full(20, 1e7)])
+    fig = without_warnings(
+        tmp_path,
+        plot_gp_prediction,
+        cal,
+        X,
+        X_train=data.X_obs,
+        y_train=data.y_obs,
+        names=data.response_names,
+        input_names=["force", "moment"],
+    )
+    assert len(fig.axes) == 2  # one column: the slice X is
+    mean, std = cal.predict(X[::-1], return_std=True)
+    for k, ax in enumerate(fig.axes):
+        lower, upper = band_limits(ax.collections[0], X[::-1, 0])
+        np.testing.assert_allclose(upper - lower, 2 * 1.96 * std[:, k])
+        np.testing.assert_allclose(ax.lines[0].get_ydata(), mean[:, k])
+        np.testing.assert_allclose(ax.lines[1].get_xdata(), data.X_obs[:, 0])
+    assert legend_texts(fig.axes[0]) == [
+        "95 % band",
+        "mean",
+        "training data (projected)",
+    ]
+    assert fig.axes[1].get_xlabel() == "force\n(moment = 1e7)"
+    # the same slice asked for by vary and fixed, from any points
+    ax = plot_gp_prediction(cal, data.X_obs, vary=0, fixed={1: 1e7}, response=0)
+    assert ax.get_xlabel() == "x0\n(x1 = 1e7)"
+    x = np.sort(data.X_obs[:, 0])
+    np.testing.assert_allclose(ax.lines[0].get_xdata(), x)
+    expected = cal.predict(np.column_stack([x, np.full(len(x), 1e7)]))[:, 0]
+    np.testing.assert_allclose(ax.lines[0].get_ydata(), expected)
+
+
+def test_gp_prediction_grid_of_design_variables(tmp_path):
+    rng = np.random.default_rng(0)
+    X = rng.uniform(size=(30, 3))
+    y = np.column_stack([np.sin(3 * X[:, 0]) + X[:, 1] ** 2 + X[:, 2], X[:, 0]])
+    gp = MultiResponseGP(random_state=0).fit(X, y)
+    fig = without_warnings(
+        tmp_path, plot_gp_prediction, gp, X, fixed={2: 0.25}, names=["a", "b"]
+    )
+    axes = np.array(fig.axes).reshape(2, 2)  # responses x varied inputs 0, 1
+    held = (X.min(axis=0) + X.max(axis=0)) / 2
+    for c in range(2):
+        x = np.unique(X[:, c])
+        points = np.tile([*held[:2], 0.25], (len(x), 1))
+        points[:, c] = x
+        mean = gp.predict(points)
+        for k in range(2):
+            np.testing.assert_allclose(axes[k, c].lines[0].get_xdata(), x)
+            np.testing.assert_allclose(axes[k, c].lines[0].get_ydata(), mean[:, k])
+    assert axes[1, 0].get_xlabel() == f"x0\n(x1 = {held[1]:.5g}, x2 = 0.25)"
+    assert axes[1, 1].get_xlabel().startswith("x1\n(x0 = ")
+    assert [ax.get_ylabel() for ax in axes[:, 0]] == ["a", "b"]
+    # "all": one column per input X spans; an input held by fixed may vary
+    fig = plot_gp_prediction(gp, X, vary="all", fixed={2: 0.25})
+    assert len(fig.axes) == 6
+    ax = plot_gp_prediction(gp, X, vary=[2], response="y1")
+    assert ax.get_xlabel().startswith("x2\n")
+
+
+def test_gp_prediction_plane_needs_no_triangulation(tmp_path):
+    """Two inputs spanned by X: contours on a grid, also for points on a
+    line (singular for a triangulation)."""
+    rng = np.random.default_rng(1)
+    X = rng.uniform(size=(20, 2))
+    gp = MultiResponseGP(random_state=0).fit(X, X[:, 0] + np.cos(3 * X[:, 1]))
+    diagonal = np.column_stack([np.linspace(0, 1, 10)] * 2)
+    fig = without_warnings(tmp_path, plot_gp_prediction, gp, diagonal, X_train=X)
+    panel = fig.axes[0]
+    assert panel.get_title() == "y0: mean"
+    assert panel.get_xlim() == (0.0, 1.0) and panel.get_ylim() == (0.0, 1.0)
+    u = np.linspace(0, 1, 50)
+    grid = np.column_stack([g.ravel() for g in np.meshgrid(u, u)])
+    mean = gp.predict(grid)
+    levels = panel.collections[0].levels
+    assert levels[0] <= mean.min() and levels[-1] >= mean.max()
+
+
+def test_calibrated_components_along_one_design_variable(cantilever_2x2, tmp_path):
+    data, cal = cantilever_2x2
+    X = np.column_stack([np.linspace(1e3, 1e4, 15), np.linspace(1e6, 3e7, 15)])
+    fig = without_warnings(
+        tmp_path,
+        plot_calibrated_components,
+        cal,
+        X,
+        vary="force",
+        fixed={"moment": 2e7},
+        X_obs=data.X_obs,
+        y_obs=data.y_obs,
+        y_true=data.reality,
+        names=data.response_names,
+        units=data.response_units,
+        input_names=["force", "moment"],
+    )
+    axes = np.array(fig.axes).reshape(2, 3)
+    points = np.column_stack([X[:, 0], np.full(15, 2e7)])
+    methods = ("predict_model", "predict_discrepancy", "predict")
+    for j, method in enumerate(methods):
+        mean, std = getattr(cal, method)(points, return_std=True)
+        for k in range(2):
+            lower, upper = band_limits(axes[k, j].collections[0], X[:, 0])
+            np.testing.assert_allclose(lower, mean[:, k] - 1.96 * std[:, k])
+            np.testing.assert_allclose(upper, mean[:, k] + 1.96 * std[:, k])
+    np.testing.assert_allclose(
+        axes[0, 2].lines[-1].get_ydata(), data.reality(points)[:, 0]
+    )
+    assert legend_texts(axes[0, 0]) == ["95 % band", "mean", "observations (projected)"]
+    np.testing.assert_allclose(axes[0, 0].lines[1].get_xdata(), data.X_obs[:, 0])
+    assert axes[1, 1].get_xlabel() == "force\n(moment = 2e7)"
+    assert axes[1, 0].get_ylabel() == "energy [N*mm]"
+
+
+def test_calibrated_components_grid_of_design_variables(analytic_2x3, tmp_path):
+    data, cal = analytic_2x3
+    fig = without_warnings(
+        tmp_path,
+        plot_calibrated_components,
+        cal,
+        X_obs=data.X_obs,
+        y_obs=data.y_obs,
+        y_true=analytic_reality,
+    )
+    axes = np.array(fig.axes).reshape(4, 3)  # (x0: y0, y1), (x1: y0, y1)
+    lo, hi = data.X_obs.min(axis=0), data.X_obs.max(axis=0)
+    middle = (lo + hi) / 2
+    assert axes[1, 0].get_xlabel() == f"x0\n(x1 = {middle[1]:.5g})"
+    assert axes[3, 2].get_xlabel() == f"x1\n(x0 = {middle[0]:.5g})"
+    assert axes[0, 0].get_xlabel() == "" and axes[2, 0].get_xlabel() == ""
+    assert [ax.get_ylabel() for ax in axes[:, 0]] == ["y0", "y1", "y0", "y1"]
+    x1 = np.linspace(lo[1], hi[1], 50)
+    points = np.column_stack([np.full(50, middle[0]), x1])
+    mean = cal.predict_model(points)
+    np.testing.assert_allclose(axes[3, 0].lines[0].get_xdata(), x1)
+    np.testing.assert_allclose(axes[3, 0].lines[0].get_ydata(), mean[:, 1])
+    # one design variable of the two, by index
+    fig = plot_calibrated_components(cal, vary=1, fixed={0: 0.2})
+    assert len(fig.axes) == 6
+    assert fig.axes[-1].get_xlabel() == "x1\n(x0 = 0.2)"
+
+
+def test_calibrated_components_slice_errors(cantilever_2x2, analytic_2x3):
+    data, cal = cantilever_2x2
+    X = data.X_obs
+    with pytest.raises(ValueError, match="both varied and fixed"):
+        plot_calibrated_components(cal, X, vary=0, fixed={0: 2e3})
+    with pytest.raises(ValueError, match="not a design variable"):
+        plot_calibrated_components(cal, X, vary="force")
+    with pytest.raises(ValueError, match="index in"):
+        plot_calibrated_components(cal, X, vary=2)
+    with pytest.raises(ValueError, match="give input_names"):
+        plot_calibrated_components(cal, X, input_name="force")
+    with pytest.raises(ValueError, match="as a function of X"):
+        plot_calibrated_components(cal, X, vary=0, y_true=data.y_obs_true)
+    with pytest.raises(ValueError, match="one value"):
+        plot_calibrated_components(cal, np.column_stack([X[:, 0], X[:, 0] * 0]), vary=1)
+    with pytest.raises(ValueError, match="spans no range"):
+        plot_calibrated_components(cal, X, fixed={0: 2e3, 1: 1e7})
+    with pytest.raises(TypeError, match="fixed must be a dict"):
+        plot_calibrated_components(cal, X, fixed=[2e3])
+    with pytest.raises(ValueError, match="X_obs has 1 columns"):
+        plot_calibrated_components(cal, X, X_obs=X[:, :1], y_obs=data.y_obs)
+
+
+@pytest.mark.parametrize("problem", ["cantilever_2x2", "analytic_2x3"])
+def test_posterior_and_traces_named_by_the_calibrator(problem, request, tmp_path):
+    _, cal = request.getfixturevalue(problem)
+    names = cal.parameter_names_
+    r = len(names)
+    assert names == (["E", "I"] if r == 2 else ["a", "b", "c"])
+    fig = without_warnings(tmp_path, plot_posterior, cal)
+    axes = np.array(fig.axes).reshape(r, r)
+    assert [ax.get_xlabel() for ax in axes[-1]] == names
+    assert [ax.get_ylabel() for ax in axes[1:, 0]] == names[1:]
+    assert axes[0, 0].get_title().startswith(f"{names[0]}: mean")
+    fig = without_warnings(tmp_path, plot_traces, cal)
+    assert [ax.get_ylabel() for ax in fig.axes] == names
+    assert fig.axes[-1].get_title().startswith(f"{names[-1]}: split R-hat")
+    # names= still wins
+    fig = plot_traces(cal, names=[f"p{j}" for j in range(r)])
+    assert fig.axes[0].get_ylabel() == "p0"
+
+
+def test_posterior_and_traces_from_inference_data(analytic_2x3, tmp_path):
+    arviz = pytest.importorskip("arviz")
+    rng = np.random.default_rng(0)
+    chains = rng.normal([1.0, 5.0, -2.0], [0.1, 0.5, 0.2], size=(3, 100, 3))
+    idata = arviz.from_dict(
+        posterior={"E": chains[..., 0], "k": chains[..., 1:]},
+        prior={"E": rng.uniform(0.5, 1.5, (1, 400)), "k": rng.normal(size=(1, 400, 2))},
+    )
+    fig = without_warnings(tmp_path, plot_traces, idata, true_value=[1.0, 5.0, -2.0])
+    assert [ax.get_ylabel() for ax in fig.axes] == ["E", "k[0]", "k[1]"]
+    for p, ax in enumerate(fig.axes):
+        for c in range(3):
+            np.testing.assert_allclose(ax.lines[c].get_ydata(), chains[c, :, p])
+    fig = without_warnings(tmp_path, plot_posterior, idata)
+    axes = np.array(fig.axes).reshape(3, 3)
+    assert [ax.get_xlabel() for ax in axes[-1]] == ["E", "k[0]", "k[1]"]
+    assert "prior (draws)" in [p.get_label() for p in axes[0, 0].patches]
+    heights = [p.get_height() for p in axes[2, 2].patches[:40]]
+    expected, _ = np.histogram(chains[..., 2], bins=40, density=True)
+    np.testing.assert_allclose(heights, expected)
+    # ArviZ 1.x returns an xarray DataTree
+    xarray = pytest.importorskip("xarray")
+    if hasattr(xarray, "DataTree"):
+        tree = xarray.DataTree.from_dict(
+            {"posterior": idata.posterior, "prior": idata.prior}
+        )
+        fig = plot_posterior(tree)
+        assert "prior (draws)" in [p.get_label() for p in fig.axes[0].patches]
+        fig = plot_traces(tree)
+        assert [ax.get_ylabel() for ax in fig.axes] == ["E", "k[0]", "k[1]"]
+    # the posterior group alone, with names given
+    fig = plot_posterior(idata.posterior, names=["a", "b", "c"])
+    assert np.array(fig.axes).reshape(3, 3)[-1, 0].get_xlabel() == "a"
+    # the calibrator's own ArviZ export
+    _, cal = analytic_2x3
+    exported = cal.to_inference_data()
+    fig = without_warnings(tmp_path, plot_traces, exported)
+    assert [ax.get_ylabel() for ax in fig.axes] == ["a", "b", "c"]
+    np.testing.assert_allclose(
+        fig.axes[1].lines[1].get_ydata(), cal.theta_chains_[1, :, 1]
+    )
+
+
+def test_traces_refuse_quadrature_inference_data(calibrator):
+    pytest.importorskip("arviz")
+    with pytest.raises(ValueError, match="quadrature"):
+        plot_traces(calibrator.to_inference_data())
+    fig = plot_posterior(calibrator.to_inference_data())
+    assert fig.axes[0].get_xlabel() == calibrator.parameter_names_[0]
+
+
+def test_inference_data_errors():
+    xarray = pytest.importorskip("xarray")
+    no_chain = xarray.Dataset({"E": (("draw",), np.zeros(10))})
+    with pytest.raises(ValueError, match=r"expected \(chain, draw"):
+        plot_posterior(no_chain)
+    with pytest.raises(ValueError, match="no variables"):
+        plot_traces(xarray.Dataset())
+
+
+def test_designer_figures_named_by_response_names(designer, tmp_path):
+    named = SimpleNamespace(**vars(designer), response_names_=list("ABCDEFG"))
+    ax = without_warnings(tmp_path, plot_criterion_by_size, named)
+    assert ax.texts[0].get_text() == "G"
+    assert ax.texts[-1].get_text() == "A, B, C, D, E, F, G"
+    ax = without_warnings(tmp_path, plot_convergence, named, subsets=[(1, 0)])
+    assert [line.get_label() for line in ax.get_lines()] == ["A, B"]
+    bias = np.linspace(0.0, 1.0, len(named.scores_))
+    ax = without_warnings(tmp_path, plot_criterion_vs_bias, named, bias, annotate=True)
+    assert ax.texts[7].get_text() == "AB"
+    # names= wins; the default stays y0, y1, ...
+    words = [f"s{k}" for k in range(7)]
+    ax = plot_criterion_by_size(named, names=words)
+    assert ax.texts[0].get_text() == "s6"
+    assert plot_criterion_by_size(designer).texts[0].get_text() == "y6"
+    wrong = SimpleNamespace(**vars(designer), response_names_=["A"])
+    with pytest.raises(ValueError, match="response_names_ has 1 entries"):
+        plot_convergence(wrong)
+    with pytest.raises(ValueError, match="subsets use response 6"):
+        plot_criterion_vs_bias(
+            designer.scores_, bias, subsets=designer.subsets_, names=["A", "B"]
+        )
