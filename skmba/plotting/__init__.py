@@ -14,9 +14,19 @@ imported when a function is called, not when :mod:`skmba` is imported.
 Conventions:
 
 * 95 % bands are ``mean ± 1.96 std``.
+* Predictions over several design variables are drawn along one of them
+  with the others held fixed (``vary``, ``fixed``; by default at the
+  middle of their range), one block of panels per design variable, or,
+  for two of them, as contours over a grid of the plane.
+* Posterior figures take a fitted calibrator, an ArviZ ``InferenceData``
+  (or ``DataTree``) such as the calibrator's ``to_inference_data()``, or
+  an array; the parameters are named by the calibrator's
+  ``parameter_names_`` or the ArviZ variables unless ``names`` is given.
 * ``names`` label the responses (or the parameters); by default they are
-  ``y0, y1, ...`` (responses), ``θ0, θ1, ...`` (parameters) and ``x0, x1,
-  ...`` (inputs), 0-based like the columns they label. ``units`` add
+  the names the fitted estimator recorded (``parameter_names_``,
+  ``response_names_``, ``feature_names_in_``) when it has them, else ``y0,
+  y1, ...`` (responses), ``θ0, θ1, ...`` (parameters) and ``x0, x1, ...``
+  (inputs), 0-based like the columns they label. ``units`` add
   ``" [unit]"`` to the axis labels.
 * ``ax`` is where to draw: an Axes, or an array of Axes for multi-panel
   figures, or None to create a new figure. A function that draws one panel
