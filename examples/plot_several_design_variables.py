@@ -1,7 +1,7 @@
 """
-=====================================================================
+======================================================================
 Two design variables: slices of the calibrated prediction, named plots
-=====================================================================
+======================================================================
 
 The cantilever of thesis section 4.7.2 carries a tip force F (1 to 10 kN)
 *and* a tip moment M (1 to 30 kN·m): two design variables. We calibrate
