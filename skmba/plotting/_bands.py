@@ -137,7 +137,7 @@ def plot_gp_prediction(
     >>> import numpy as np
     >>> from skmba import MultiResponseGP
     >>> from skmba.plotting import plot_gp_prediction
-    >>> X = np.linspace(0, 1, 8)[:, None]
+    >>> X = np.linspace(0, 1, 10)[:, None]
     >>> y = np.column_stack([np.sin(4 * X[:, 0]), X[:, 0] ** 2])
     >>> gp = MultiResponseGP().fit(X, y)
     >>> fig = plot_gp_prediction(gp, np.linspace(0, 1, 50), X_train=X, y_train=y,
