@@ -49,6 +49,7 @@ from skmba._posterior import (
 )
 from skmba._prediction import PredictionRule, predict_component, prediction_rule
 from skmba._priors import check_prior
+from skmba._progress import Progress
 from skmba._regression import REGRESSIONS, n_regression_terms
 from skmba._simulations import (
     check_design_size,
@@ -189,10 +190,13 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         at the field inputs of the module-3 likelihood alike (the model term
         of the global covariance is ``Sigma2_m ⊗ (R + alpha I)``).
     verbose : int, default=0
-        Progress messages on standard output, prefixed
-        ``[ModularBayesCalibrator]``: 0 is silent, 1 reports each module
-        (time, noise, posterior, MCMC diagnostics), 2 also joblib's tasks
-        and each chain's progress (see the User Guide).
+        Progress on standard error, prefixed ``[ModularBayesCalibrator]``:
+        0 prints nothing; 1 shows progress bars (simulator runs, emulator
+        and module-2 restarts, MCMC steps of all chains, also when joblib
+        workers run them) and a line per module (time, noise, posterior,
+        MCMC diagnostics); 2 also detail lines (each restart, each chain's
+        burn-in and acceptance). Results do not depend on it (see the User
+        Guide).
 
     Attributes
     ----------
@@ -354,10 +358,9 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         self.verbose = verbose
 
     # -------------------------------------------------------------- fit
-    def _say(self, message):
-        """Progress message when ``verbose > 0`` (see ``verbose``)."""
-        if self.verbose > 0:
-            print(f"[ModularBayesCalibrator] {message}", flush=True)
+    def _progress(self):
+        """Where ``fit`` reports, by ``verbose`` (:mod:`skmba._progress`)."""
+        return Progress(self.verbose, "ModularBayesCalibrator")
 
     def fit(self, X, y, *, X_sim=None, theta_sim=None, y_sim=None):
         """Run modules 1-3 (module 4 runs at prediction time).
@@ -460,7 +463,7 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
             n_runs + (0 if given is None else len(given.X)), self.regression, k
         )
         return collect_simulations(
-            self.simulator, X, q, prior, given, n_runs, seed, self._say
+            self.simulator, X, q, prior, given, n_runs, seed, self._progress()
         )
 
     def _set_fitted(
@@ -715,7 +718,8 @@ def module_settings(cal):
 
 def _run_modules(est, X, Y, sims, prior, ranges, seeds):
     """Modules 1-3 with the estimator's parameters; the fitted pieces."""
-    say = est._say
+    progress = est._progress()
+    say = progress.info
     q = Y.shape[1]
     started = time.perf_counter()
     scaler = Standardizer.from_simulations(sims.X, sims.theta, sims.y)
@@ -726,6 +730,7 @@ def _run_modules(est, X, Y, sims, prior, ranges, seeds):
         sims.y,
         **module_settings(est)["emulator"],
         random_state=seeds[0],
+        progress=progress,
     )
     say(
         f"module 1 done in {time.perf_counter() - started:.1f} s: emulator of "
@@ -744,7 +749,8 @@ def _run_modules(est, X, Y, sims, prior, ranges, seeds):
 
 def _module2(est, emulator, scaler, prior, Xs, Ys, ranges, seeds):
     """Module 2: the integrated emulator, then the discrepancy and noise."""
-    say = est._say
+    progress = est._progress()
+    say = progress.info
     started = time.perf_counter()
     integrated = integrate_over_prior(
         emulator,
@@ -761,6 +767,7 @@ def _module2(est, emulator, scaler, prior, Xs, Ys, ranges, seeds):
         **module_settings(est)["discrepancy"],
         ranges=ranges,
         random_state=seeds[2],
+        progress=progress,
     )
     say(
         f"module 2 done in {time.perf_counter() - started:.1f} s: noise "
@@ -774,7 +781,8 @@ def _module2(est, emulator, scaler, prior, Xs, Ys, ranges, seeds):
 
 def _module3(est, emulator, scaler, prior, sims, Xs, Ys, disc, seed):
     """Module 3: the posterior of theta, and module 4's rule over it."""
-    say = est._say
+    progress = est._progress()
+    say = progress.info
     started = time.perf_counter()
     (n, d), q = Xs.shape, Ys.shape[1]
     P = q * (
@@ -802,8 +810,7 @@ def _module3(est, emulator, scaler, prior, sims, Xs, Ys, disc, seed):
             burn_in=est.burn_in,
             n_jobs=est.n_jobs,
             random_state=seed,
-            verbose=est.verbose if est.verbose >= 2 else 0,
-            say=say,
+            progress=progress,
         )
     rule = prediction_rule(posterior, log_post)
     say(posterior.summary(time.perf_counter() - started))

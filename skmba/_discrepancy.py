@@ -50,6 +50,7 @@ from skmba._linalg import (
     cholesky,
     log_det_from_cholesky,
 )
+from skmba._progress import as_progress, start_reporter
 from skmba._regression import regression_basis
 from skmba._validation import seed_sequence
 
@@ -358,6 +359,7 @@ class DiscrepancyFit:
         random_state=None,
         start=None,
         max_iter=None,
+        on_start=None,
     ):
         """Maximise the likelihood; returns ``self`` with the fitted values.
 
@@ -366,7 +368,9 @@ class DiscrepancyFit:
         replaces the default starting point of :meth:`start`; it is clipped
         to the bounds. ``max_iter`` bounds the L-BFGS-B iterations of each
         start (None: scipy's default); reaching it is not warned about, the
-        caller asked for it.
+        caller asked for it. ``on_start(k, n, fun)``, when given, is called
+        after the L-BFGS-B run from start ``k`` of ``n`` (``fun`` its
+        minimum of ``-loglik``), for progress reports.
         """
         rng = np.random.default_rng(seed_sequence(random_state))
         bounds = self.bounds()
@@ -401,7 +405,7 @@ class DiscrepancyFit:
                 f"of {DISCREPANCY_OPTIMIZERS}."
             )
         best = None
-        for s in starts:
+        for k, s in enumerate(starts, 1):
             res = optimize.minimize(
                 self._objective,
                 s,
@@ -418,6 +422,8 @@ class DiscrepancyFit:
                     ConvergenceWarning,
                     stacklevel=2,
                 )
+            if on_start is not None:
+                on_start(k, len(starts), float(res.fun))
             if best is None or res.fun < best.fun:
                 best = res
         if not np.isfinite(best.fun):
@@ -462,6 +468,7 @@ def fit_discrepancy(
     start=None,
     max_iter=None,
     responses=None,
+    progress=None,
 ):
     """Module 2b (Eq. 4.19): discrepancy GP and noise by maximum likelihood.
 
@@ -493,6 +500,9 @@ def fit_discrepancy(
     responses : sequence of int, default=None
         The responses (columns of the simulations) that ``residual`` holds,
         to restrict the variance ranges; None for all.
+    progress : skmba._progress.Progress, default=None
+        A bar of the optimiser's starts and, as detail lines, the
+        log-likelihood each reaches; None is silent.
 
     Returns
     -------
@@ -522,10 +532,14 @@ def fit_discrepancy(
     )
     if not noise:
         disc.fix_noise(1e-10)
-    return disc.optimize(
-        optimizer=optimizer,
-        n_restarts=n_restarts,
-        random_state=random_state,
-        start=None if start is None else start(disc),
-        max_iter=max_iter,
-    )
+    progress = as_progress(progress)
+    n_starts = 1 if optimizer == "differential_evolution" else n_restarts + 1
+    with progress.bar(n_starts, "module 2: discrepancy", unit="start") as bar:
+        return disc.optimize(
+            optimizer=optimizer,
+            n_restarts=n_restarts,
+            random_state=random_state,
+            start=None if start is None else start(disc),
+            max_iter=max_iter,
+            on_start=start_reporter(progress, bar, "module 2"),
+        )

@@ -35,6 +35,7 @@ import numpy as np
 from scipy import linalg
 
 from skmba._gp import MultiResponseGP, default_kernel
+from skmba._progress import as_progress, start_reporter
 from skmba._regression import regression_basis
 
 #: Nugget on the response covariance of the emulator: under a tip load a
@@ -286,6 +287,7 @@ def fit_emulator(
     alpha=1e-8,
     n_restarts_optimizer=2,
     random_state=None,
+    progress=None,
 ):
     """Module 1: fit the emulator to the standardised simulations.
 
@@ -303,6 +305,10 @@ def fit_emulator(
         The GP's nugget (escalated by the GP if the factorisation fails).
     n_restarts_optimizer : int
     random_state : int or None
+    progress : skmba._progress.Progress, default=None
+        A bar of the starts of the likelihood search (the first and the
+        ``n_restarts_optimizer`` restarts) and, as detail lines, the
+        log-likelihood each reaches; None is silent.
 
     Returns
     -------
@@ -323,7 +329,15 @@ def fit_emulator(
         normalize_y=False,
         random_state=random_state,
         response_nugget=RESPONSE_NUGGET,
-    ).fit(Z, Ys)
+    )
+    progress = as_progress(progress)
+    with progress.bar(
+        n_restarts_optimizer + 1, f"emulator of {len(Z)} simulations", unit="start"
+    ) as bar:
+        gp._fit_reporting(Z, Ys, start_reporter(progress, bar, "emulator"))
+        if bar.n < bar.total:  # e.g. no hyperparameter to search
+            bar.total = bar.n
+            bar.refresh()
     if gp.likelihood_ is None or not np.all(gp.active_responses_):
         raise ValueError(
             "A simulated response is constant over the simulations: it "

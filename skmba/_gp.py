@@ -17,6 +17,7 @@ Examples
 """
 
 import warnings
+from contextlib import contextmanager
 from typing import ClassVar
 
 import numpy as np
@@ -280,13 +281,32 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
         After a failed fit the estimator is unfitted (any previous fit is
         discarded), so that it cannot mix old and new state.
         """
+        with self._fitting():
+            return self._fit(X, y)
+
+    def _fit_reporting(self, X, y, on_start):
+        """:meth:`fit`, calling ``on_start(k, n, fun)`` after each start of
+        the likelihood search (see
+        :class:`~skmba._gp_search.LikelihoodProblem`): the emulator's
+        progress bar (:func:`~skmba._emulator.fit_emulator`)."""
+        with self._fitting():
+            return self._fit(X, y, on_start)
+
+    @contextmanager
+    def _fitting(self):
+        """BLAS on one thread; after a failure, no fitted state.
+
+        A context manager rather than a wrapper, so that the warnings'
+        ``stacklevel`` counts the same frames from :meth:`fit` and
+        :meth:`_fit_reporting`.
+        """
         # numpy and scipy may each bring an OpenBLAS pool; on few cores the
         # pools compete and small-matrix work slows down 2-20x (measured:
         # the noisy q=16 fit of benchmarks/bench_gp.py, 17 s -> 1 s). The
         # likelihood work here is sequential, so hold BLAS to one thread.
         with threadpool_limits(limits=1, user_api="blas"):
             try:
-                return self._fit(X, y)
+                yield
             except BaseException:
                 # No mix of a previous fit and a failed one: unfitted, so
                 # predict raises NotFittedError instead of answering wrongly.
@@ -295,7 +315,7 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
                     delattr(self, name)
                 raise
 
-    def _fit(self, X, y):
+    def _fit(self, X, y, on_start=None):
         validate_parameter_table(self)
         X, Y = self._validate_training_data(X, y)
         n, d = X.shape
@@ -340,6 +360,7 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
                 n_restarts=self.n_restarts_optimizer,
                 random_state=self.random_state,
                 differences=pairwise_differences(kernel, X),
+                on_start=on_start,
             )
             fit_path = fit_noisy if self.noise else fit_noise_free
             self.kernel_, self.likelihood_ = fit_path(problem, kernel)

@@ -91,7 +91,10 @@ class LikelihoodProblem:
     regression basis and the standardised non-constant responses.
     ``nugget`` is the one in use: the search raises it while the correlation
     matrix is numerically singular; ``alpha`` is the user's (for messages).
-    The other fields are ``MultiResponseGP``'s settings.
+    ``on_start``, when given, is called after each start of a likelihood
+    search as ``on_start(k, n, fun)`` (start ``k`` of ``n``, its minimum of
+    ``-loglik``), for progress reports. The other fields are
+    ``MultiResponseGP``'s settings.
     """
 
     X: np.ndarray
@@ -104,6 +107,7 @@ class LikelihoodProblem:
     n_restarts: int = 0
     random_state: object = None
     differences: np.ndarray | None = None
+    on_start: object = None
 
     def __post_init__(self):
         if self.alpha is None:
@@ -158,12 +162,14 @@ def negative_objective(evaluate, params, eval_gradient, failures, errors, gradie
     return -fit.log_likelihood
 
 
-def run_optimizer(objective, starts, bounds, optimizer, failures):
+def run_optimizer(objective, starts, bounds, optimizer, failures, on_start=None):
     """Minimise ``objective`` from each start.
 
     ``optimizer`` is a callable ``optimizer(objective, start, bounds) ->
     (x, fun)``, otherwise L-BFGS-B is used. ``failures`` is the list the
-    objective appends factorisation errors to. Returns a :class:`Search`: the
+    objective appends factorisation errors to. ``on_start(k, n, fun)``, when
+    given, is called after start ``k`` (1-based) of ``n``, for progress
+    reports. Returns a :class:`Search`: the
     best point (None when the objective could not be evaluated from any
     start), the failures recorded during the run that found it (all of them
     when none did), that run's L-BFGS-B non-convergence messages, and whether
@@ -171,7 +177,7 @@ def run_optimizer(objective, starts, bounds, optimizer, failures):
     """
     best = Search(None, list(failures), [], None)
     best_fun = np.inf
-    for start in starts:
+    for k, start in enumerate(starts, 1):
         mark = len(failures)
         notes, flat = [], None
         if callable(optimizer):
@@ -190,6 +196,8 @@ def run_optimizer(objective, starts, bounds, optimizer, failures):
             if not res.success and np.isfinite(res.fun) and not flat:
                 notes.append(str(res.message))
         fun = float(fun)
+        if on_start is not None:
+            on_start(k, len(starts), fun)
         if np.isfinite(fun) and (best.x is None or fun < best_fun):
             best = Search(np.asarray(x, dtype=float), failures[mark:], notes, flat)
             best_fun = fun
@@ -282,7 +290,12 @@ class _Concentrated:
         notes = []
         if search:
             x, found, notes, flat = run_optimizer(
-                self.objective, starts, bounds, self.problem.optimizer, self.failures
+                self.objective,
+                starts,
+                bounds,
+                self.problem.optimizer,
+                self.failures,
+                on_start=self.problem.on_start,
             )
         else:
             x, found, flat = x0, [], None

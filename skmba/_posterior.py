@@ -57,6 +57,7 @@ from skmba._linalg import (
     cholesky,
     log_det_from_cholesky,
 )
+from skmba._progress import as_progress
 from skmba._regression import regression_basis
 from skmba._sampling import run_chains
 from skmba._validation import seed_sequence
@@ -583,8 +584,7 @@ def posterior_by_mcmc(
     burn_in,
     n_jobs=None,
     random_state=None,
-    verbose=0,
-    say=None,
+    progress=None,
 ):
     """Metropolis-Hastings chains on the sampling coordinates.
 
@@ -596,16 +596,16 @@ def posterior_by_mcmc(
         Chains in parallel through joblib.
     random_state : int, SeedSequence or None
         Seeds the starts and, through a second child, the chains.
-    verbose : int
-        Passed to the sampler.
-    say : callable, default=None
-        Progress messages.
+    progress : skmba._progress.Progress, default=None
+        Step lines (the start of the chains, each chain's acceptance) and
+        the sampler's bar and detail lines; None is silent.
 
     Returns
     -------
     PosteriorResult
     """
-    say = say or (lambda message: None)
+    progress = as_progress(progress)
+    say = progress.info
     starts_seed, chains_seed = seed_sequence(random_state).spawn(2)
     rng = np.random.default_rng(starts_seed)
     started = time.perf_counter()
@@ -625,7 +625,7 @@ def posterior_by_mcmc(
         adapt=True,
         n_jobs=n_jobs,
         random_state=chains_seed,
-        verbose=verbose,
+        progress=progress,
     )
     chains = log_posterior.from_u(result.samples)
     # The chains' log density is of the sampling coordinates u: take off the

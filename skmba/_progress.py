@@ -48,8 +48,8 @@ DETAIL = 2
 class _SilentBar:
     """The do-nothing stand-in of a tqdm bar (``verbose=0``)."""
 
-    n = 0
-    total = None
+    def __init__(self, total=None):
+        self.n, self.total = 0, total
 
     def __enter__(self):
         return self
@@ -130,7 +130,7 @@ class Progress:
         3
         """
         if not self.enabled:
-            return _SilentBar()
+            return _SilentBar(total)
         return tqdm(
             total=total,
             desc=self._text(desc),
@@ -154,6 +154,36 @@ def as_progress(progress):
     True
     """
     return SILENT if progress is None else progress
+
+
+def start_reporter(progress, bar, what):
+    """``on_start(k, n, fun)`` for a likelihood search: the bar and a line.
+
+    The callback of the optimisers' starts (the emulator's and module 2's):
+    it advances ``bar`` by one start and writes the detail line ``{what}:
+    start k of n, log-likelihood ...`` (``fun`` is the minimised
+    ``-loglik``). A new search (``k == 1`` after others, as when the
+    emulator's nugget is escalated) adds its starts to the bar's total.
+
+    Examples
+    --------
+    >>> progress = Progress(0)
+    >>> with progress.bar(2, "starts") as bar:
+    ...     on_start = start_reporter(progress, bar, "emulator")
+    ...     on_start(1, 2, -10.0)
+    ...     on_start(2, 2, -12.0)
+    >>> bar.n
+    2
+    """
+
+    def on_start(k, n, fun):
+        if k == 1 and bar.n:
+            bar.total = bar.n + n
+            bar.refresh()
+        bar.update(1)
+        progress.detail(f"{what}: start {k} of {n}, log-likelihood {-fun:.6g}")
+
+    return on_start
 
 
 def results_as_ready(tasks, n_jobs=None):

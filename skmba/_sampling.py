@@ -49,11 +49,12 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-from joblib import Parallel, delayed
+from joblib import delayed
 from scipy import linalg
 from threadpoolctl import threadpool_limits
 
 from skmba._diagnostics import ess_bulk, split_rhat
+from skmba._progress import Progress, results_as_ready
 from skmba._validation import check_count, seed_sequence
 
 # Optimal scaling of a random-walk proposal for a Gaussian target in r
@@ -73,6 +74,10 @@ _EPSILON = 1e-10
 _GAIN_EXPONENT = 0.5
 # Number of steps per block of pre-drawn random numbers after burn-in.
 _BLOCK = 1024
+# With a progress bar, the chains run in about this many segments, after
+# each of which the parent process updates the bar (the draws do not depend
+# on the segments).
+_PROGRESS_SEGMENTS = 20
 
 
 @dataclass
@@ -144,6 +149,7 @@ def run_chains(
     n_jobs=None,
     random_state=None,
     verbose=0,
+    progress=None,
 ):
     """Run adaptive random-walk Metropolis-Hastings chains in parallel.
 
@@ -184,10 +190,16 @@ def run_chains(
         :func:`~skmba._validation.seed_sequence`) whose ``spawn(n_chains)``
         children seed the chains. Results do not depend on ``n_jobs``.
     verbose : int, default=0
-        Verbosity of :class:`joblib.Parallel`; from 2 on, each chain also
-        prints (to the standard output of the process that runs it) the end
-        of its burn-in with the adapted scale factor, every quarter of its
-        draws and its acceptance rate.
+        0 prints nothing; 1 shows a progress bar of the steps of all chains
+        (on standard error, see :mod:`skmba._progress`); 2 also a line per
+        chain at the end of its burn-in (time, adapted scale factor) and of
+        its draws (time, acceptance rate). With a bar, the chains run in
+        about 20 segments each, and the parent process updates the bar as
+        each segment returns (also from joblib workers); the draws are the
+        same as in one piece.
+    progress : skmba._progress.Progress, default=None
+        Where to report, instead of ``Progress(verbose)`` (the estimators
+        pass theirs, so that lines carry their name).
 
     Returns
     -------
@@ -224,38 +236,73 @@ def run_chains(
         burn_in=burn_in,
         adapt=bool(adapt),
         n_jobs=n_jobs,
-        verbose=verbose,
+        progress=Progress(verbose) if progress is None else progress,
     )
 
 
-def _run_parallel(chains, *, n_samples, burn_in, adapt, n_jobs, verbose):
+def _run_parallel(chains, *, n_samples, burn_in, adapt, n_jobs, progress):
     """Run each chain's ``(log_density, start, start_value, chol, seed)``.
 
-    The chains are run by :class:`joblib.Parallel` and their outputs stacked
-    into a :class:`ChainResult`.
+    Each chain is a :class:`_Chain` advanced by :func:`_advance` in
+    :class:`joblib.Parallel` tasks: in one segment without a progress bar,
+    else in about ``_PROGRESS_SEGMENTS`` segments, the bar being updated as
+    each returns. A chain's draws depend on its seed only, not on the
+    segments nor on where they run. Returns the stacked
+    :class:`ChainResult`.
     """
-    outputs = Parallel(n_jobs=n_jobs, verbose=verbose)(
-        delayed(_run_chain)(
-            density,
-            start,
-            start_value,
-            chol,
-            n_samples=n_samples,
-            burn_in=burn_in,
-            adapt=adapt,
-            seed=seed,
-            chain=c,
-            verbose=verbose,
+    densities, states = [], []
+    for c, (density, start, start_value, chol, seed) in enumerate(chains):
+        densities.append(density)
+        states.append(
+            _Chain(
+                start,
+                start_value,
+                chol,
+                seed,
+                n_samples=n_samples,
+                burn_in=burn_in,
+                adapt=adapt,
+                chain=c,
+            )
         )
-        for c, (density, start, start_value, chol, seed) in enumerate(chains)
-    )
-    samples, values, acceptance, covs = zip(*outputs, strict=True)
+    total = burn_in + n_samples
+    segment = -(-total // _PROGRESS_SEGMENTS) if progress.enabled else total
+    done = [0] * len(states)
+    with progress.bar(
+        len(states) * total, f"MCMC: {len(states)} chain(s)", unit="step"
+    ) as bar:
+        until = 0
+        while until < total:
+            until = min(total, until + segment)
+            active = [c for c in range(len(states)) if done[c] < until]
+            tasks = (delayed(_advance)(densities[c], states[c], until) for c in active)
+            for c, state in zip(active, results_as_ready(tasks, n_jobs), strict=True):
+                states[c] = state
+                bar.update(state.steps - done[c])
+                _report_chain(progress, state, done[c])
+                done[c] = state.steps
     return ChainResult(
-        samples=np.stack(samples),
-        log_density=np.stack(values),
-        acceptance_rate=np.array(acceptance),
-        proposal_cov=np.stack(covs),
+        samples=np.stack([state.samples for state in states]),
+        log_density=np.stack([state.values for state in states]),
+        acceptance_rate=np.array([state.n_accept / n_samples for state in states]),
+        proposal_cov=np.stack([state.chol @ state.chol.T for state in states]),
     )
+
+
+def _report_chain(progress, state, before):
+    """Detail lines when a segment ended a chain's burn-in or its draws."""
+    if state.burn_in and before < state.burn_in <= state.steps:
+        progress.detail(
+            f"chain {state.chain}: burn-in of {state.burn_in} steps done in "
+            f"{state.seconds_burn_in:.1f} s, scale factor "
+            f"{math.exp(state.log_scale):.3g}"
+        )
+    if before < state.total == state.steps:
+        progress.detail(
+            f"chain {state.chain}: {state.n_samples} draws done in "
+            f"{state.seconds:.1f} s, acceptance "
+            f"{state.n_accept / state.n_samples:.3f}"
+        )
 
 
 def _check_starts(starts):
@@ -356,114 +403,145 @@ def _merge_moments(counts, means, m2s):
     return n, mean, m2
 
 
-def _run_chain(*args, **kwargs):
-    """One chain: adaptive burn-in, then ``n_samples`` draws with a fixed kernel.
+def _advance(log_density, state, until):
+    """Run ``state`` (a :class:`_Chain`) on to step ``until``; return it.
 
-    Arguments as :func:`_run_chain_body`. BLAS is held to one thread: the
-    chain's arithmetic is then the same in any worker (process or thread) of
-    any joblib backend.
+    BLAS is held to one thread: the chain's arithmetic is then the same in
+    any worker (process or thread) of any joblib backend.
     """
     with threadpool_limits(limits=1, user_api="blas"):
-        return _run_chain_body(*args, **kwargs)
+        state.advance(log_density, until)
+    return state
 
 
-def _run_chain_body(
-    log_density,
-    start,
-    start_value,
-    chol,
-    *,
-    n_samples,
-    burn_in,
-    adapt,
-    seed,
-    chain,
-    verbose,
-):
-    """Burn-in (:func:`_burn_in`), then draws with the frozen kernel."""
-    started = time.perf_counter()
-    rng = np.random.default_rng(seed)
-    theta, logp, chol, log_scale = _burn_in(
-        log_density,
-        start.copy(),
-        start_value,
-        chol,
-        rng,
-        burn_in=burn_in,
-        adapt=adapt,
-        chain=chain,
-    )
-    if verbose >= 2:
-        print(
-            f"chain {chain}: burn-in of {burn_in} steps done in "
-            f"{time.perf_counter() - started:.1f} s, scale factor "
-            f"{math.exp(log_scale):.3g}",
-            flush=True,
-        )
-    chol = math.exp(0.5 * log_scale) * chol
-    samples, values, n_accept = _fixed_kernel_draws(
-        log_density,
-        theta,
-        logp,
-        chol,
-        rng,
-        n_samples=n_samples,
-        chain=chain,
-        started=started if verbose >= 2 else None,
-    )
-    acceptance = n_accept / n_samples
-    if verbose >= 2:
-        print(
-            f"chain {chain}: {n_samples} draws done in "
-            f"{time.perf_counter() - started:.1f} s, acceptance {acceptance:.3f}",
-            flush=True,
-        )
-    return samples, values, acceptance, chol @ chol.T
+class _Chain:
+    """One chain between segments of its run: position, adaptation, draws.
 
-
-def _burn_in(log_density, theta, logp, chol, rng, *, burn_in, adapt, chain):
-    """``burn_in`` steps in blocks of ``_ADAPT_INTERVAL`` with a fixed shape L.
-
-    Returns the last state ``theta`` and its ``logp``, the adapted Cholesky
-    factor and the adapted log scale factor.
+    :meth:`advance` runs the adaptive burn-in in blocks of
+    ``_ADAPT_INTERVAL`` steps, then ``n_samples`` draws with the frozen
+    kernel, whose random numbers are drawn ``_BLOCK`` steps at a time (a
+    block that a segment leaves unfinished is kept in ``pending``). The
+    generator and all the state travel with the object, so that a chain run
+    in several segments, in any processes, gives the draws of one run.
     """
-    r = theta.size
-    target = _TARGET_ACCEPTANCE_1D if r == 1 else _TARGET_ACCEPTANCE
-    log_scale = 0.0
-    n_blocks = -(-burn_in // _ADAPT_INTERVAL)
-    counts = np.zeros(n_blocks)
-    means = np.zeros((n_blocks, r))
-    m2s = np.zeros((n_blocks, r, r))
-    accepts = np.zeros(n_blocks, dtype=int)
-    step = 0
-    for b in range(n_blocks):
-        m = min(_ADAPT_INTERVAL, burn_in - step)
-        increments = rng.standard_normal((m, r)) @ chol.T
-        log_u = np.log(rng.random(m))
-        block, theta, logp, log_scale, n_accept = _burn_in_block(
+
+    def __init__(
+        self, start, start_value, chol, seed, *, n_samples, burn_in, adapt, chain
+    ):
+        r = start.size
+        self.chain = chain
+        self.n_samples, self.burn_in, self.adapt = n_samples, burn_in, adapt
+        self.rng = np.random.default_rng(seed)
+        self.theta, self.logp, self.chol = start.copy(), start_value, chol
+        self.log_scale = 0.0
+        n_blocks = -(-burn_in // _ADAPT_INTERVAL)
+        self.counts = np.zeros(n_blocks)
+        self.means = np.zeros((n_blocks, r))
+        self.m2s = np.zeros((n_blocks, r, r))
+        self.accepts = np.zeros(n_blocks, dtype=int)
+        self.burned = 0  # burn-in steps done
+        self.frozen = False  # the kernel is fixed (burn-in over)
+        self.samples = np.empty((n_samples, r))
+        self.values = np.empty(n_samples)
+        self.n_accept = 0
+        self.drawn = 0  # draws kept
+        self.pending = None  # (increments, log_u, next index) of a block
+        self.seconds = self.seconds_burn_in = 0.0
+
+    @property
+    def total(self):
+        """Steps of the whole run: burn-in and draws."""
+        return self.burn_in + self.n_samples
+
+    @property
+    def steps(self):
+        """Steps done so far."""
+        return self.burned + self.drawn
+
+    def advance(self, log_density, until):
+        """Steps up to ``until`` (burn-in blocks are not split)."""
+        started = time.perf_counter()
+        while self.burned < self.burn_in and self.steps < until:
+            self._burn_in_block(log_density)
+        if self.burned == self.burn_in and not self.frozen:
+            self.chol = math.exp(0.5 * self.log_scale) * self.chol
+            self.frozen = True
+            self.seconds_burn_in = self.seconds + time.perf_counter() - started
+        if self.frozen and self.steps < until:
+            self._draws(log_density, until - self.steps)
+        self.seconds += time.perf_counter() - started
+
+    def _burn_in_block(self, log_density):
+        """One block of burn-in, then the adaptation of the proposal shape.
+
+        The proposal covariance is adapted every ``_ADAPT_INTERVAL`` steps
+        from step ``2 * _ADAPT_INTERVAL`` on, from the latest half of the
+        blocks (:func:`_adapted_chol`).
+        """
+        r = self.theta.size
+        target = _TARGET_ACCEPTANCE_1D if r == 1 else _TARGET_ACCEPTANCE
+        b, step = self.burned // _ADAPT_INTERVAL, self.burned
+        m = min(_ADAPT_INTERVAL, self.burn_in - step)
+        increments = self.rng.standard_normal((m, r)) @ self.chol.T
+        log_u = np.log(self.rng.random(m))
+        block, self.theta, self.logp, self.log_scale, n_accept = _burn_in_block(
             log_density,
-            theta,
-            logp,
+            self.theta,
+            self.logp,
             increments,
             log_u,
-            log_scale,
+            self.log_scale,
             step=step,
-            target=target if adapt else None,
-            chain=chain,
+            target=target if self.adapt else None,
+            chain=self.chain,
         )
         step += m
-        counts[b] = m
-        means[b] = block.mean(axis=0)
-        dev = block - means[b]
-        m2s[b] = dev.T @ dev
-        accepts[b] = n_accept
-        if adapt and step >= 2 * _ADAPT_INTERVAL and step < burn_in:
-            first = (b + 1) // 2
-            window = slice(first, b + 1)
-            chol = _adapted_chol(
-                chol, counts[window], means[window], m2s[window], accepts[window]
+        self.burned = step
+        self.counts[b] = m
+        self.means[b] = block.mean(axis=0)
+        dev = block - self.means[b]
+        self.m2s[b] = dev.T @ dev
+        self.accepts[b] = n_accept
+        if self.adapt and step >= 2 * _ADAPT_INTERVAL and step < self.burn_in:
+            window = slice((b + 1) // 2, b + 1)
+            self.chol = _adapted_chol(
+                self.chol,
+                self.counts[window],
+                self.means[window],
+                self.m2s[window],
+                self.accepts[window],
             )
-    return theta, logp, chol, log_scale
+
+    def _draws(self, log_density, n_steps):
+        """``n_steps`` more draws with the frozen proposal factor ``chol``.
+
+        Random numbers are drawn in blocks of ``_BLOCK`` steps (of the
+        draws still to make), as if the chain ran in one piece.
+        """
+        r = self.theta.size
+        theta, logp, chol = self.theta, self.logp, self.chol
+        samples, values = self.samples, self.values
+        step, end = self.drawn, min(self.n_samples, self.drawn + n_steps)
+        while step < end:
+            if self.pending is None:
+                m = min(_BLOCK, self.n_samples - step)
+                increments = self.rng.standard_normal((m, r)) @ chol.T
+                log_u = np.log(self.rng.random(m))
+                self.pending = (increments, log_u, 0)
+            increments, log_u, first = self.pending
+            stop = min(len(log_u), first + end - step)
+            for i in range(first, stop):
+                proposal = theta + increments[i]
+                value = _evaluate(log_density, proposal, self.chain)
+                if log_u[i] < value - logp:
+                    theta = proposal
+                    logp = value
+                    self.n_accept += 1
+                samples[step] = theta
+                values[step] = logp
+                step += 1
+            self.pending = None if stop == len(log_u) else (increments, log_u, stop)
+        self.theta, self.logp, self.drawn = theta, logp, step
 
 
 def _burn_in_block(
@@ -509,43 +587,3 @@ def _adapted_chol(chol, counts, means, m2s, accepts):
         return linalg.cholesky(cov, lower=True, check_finite=False)
     except linalg.LinAlgError:
         return chol  # keep the previous shape
-
-
-def _fixed_kernel_draws(
-    log_density, theta, logp, chol, rng, *, n_samples, chain, started
-):
-    """``n_samples`` steps with the frozen proposal factor ``chol``.
-
-    Random numbers are drawn in blocks of ``_BLOCK`` steps. With ``started``
-    (a :func:`time.perf_counter` value) progress is printed every quarter.
-    Returns the draws, their log-densities and the number of accepted moves.
-    """
-    r = theta.size
-    quarters = set()
-    if started is not None:
-        quarters = {(k * n_samples) // 4 for k in range(1, 4)} - {0}
-    samples = np.empty((n_samples, r))
-    values = np.empty(n_samples)
-    n_accept = 0
-    step = 0
-    while step < n_samples:
-        m = min(_BLOCK, n_samples - step)
-        increments = rng.standard_normal((m, r)) @ chol.T
-        log_u = np.log(rng.random(m))
-        for i in range(m):
-            proposal = theta + increments[i]
-            value = _evaluate(log_density, proposal, chain)
-            if log_u[i] < value - logp:
-                theta = proposal
-                logp = value
-                n_accept += 1
-            samples[step] = theta
-            values[step] = logp
-            step += 1
-            if step in quarters:
-                print(
-                    f"chain {chain}: {step}/{n_samples} draws "
-                    f"({time.perf_counter() - started:.1f} s)",
-                    flush=True,
-                )
-    return samples, values, n_accept

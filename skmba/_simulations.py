@@ -23,6 +23,7 @@ import numpy as np
 from scipy import sparse, stats
 from sklearn.utils.validation import check_array
 
+from skmba._progress import as_progress
 from skmba._regression import n_regression_terms
 
 # Share of the prior mass that must lie in the simulated range of theta
@@ -257,19 +258,26 @@ def simulation_design(X, prior, n_runs, given, seed):
     return X_run, theta_run
 
 
-def collect_simulations(simulator, X, q, prior, given, n_runs, seed, say):
+def collect_simulations(simulator, X, q, prior, given, n_runs, seed, progress=None):
     """The given runs and ``n_runs`` simulator runs, stacked.
 
     Returns the runs even when some of the simulator's are not finite (so
     that the caller can keep them); :func:`check_simulator_runs` reports
-    those.
+    those. ``progress`` (a :class:`~skmba._progress.Progress`, None is
+    silent) shows a bar of the runs around the one batch call of the
+    simulator, then their number and time.
     """
+    progress = as_progress(progress)
     parts = [] if given is None else [(given.X, given.theta, given.y)]
     if simulator is not None:
         X_run, theta_run = simulation_design(X, prior, n_runs, given, seed)
         started = time.perf_counter()
-        y_run = run_simulator(simulator, X_run, theta_run, q, check_finite=False)
-        say(f"simulator: {n_runs} runs in {time.perf_counter() - started:.1f} s")
+        with progress.bar(n_runs, "simulator", unit="run") as bar:
+            y_run = run_simulator(simulator, X_run, theta_run, q, check_finite=False)
+            bar.update(n_runs)
+        progress.info(
+            f"simulator: {n_runs} runs in {time.perf_counter() - started:.1f} s"
+        )
         parts.append((X_run, theta_run, y_run))
     else:
         n_runs = 0

@@ -816,23 +816,30 @@ def test_verbose_zero_prints_nothing(capsys):
 
 
 def test_verbose_reports_each_module(capsys):
+    # Everything on standard error: the lines and bars of skmba._progress.
     fit(BAD, n_restarts_optimizer=0, verbose=1)
-    out = capsys.readouterr().out
-    lines = out.splitlines()
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    out = captured.err
+    lines = [line.split("\r")[-1] for line in out.split("\n") if line]
     assert all(line.startswith("[ModularBayesCalibrator] ") for line in lines)
     assert re.search(r"module 1 done in [\d.]+ s: emulator of 30 simulations", out)
     assert re.search(r"module 2 done in [\d.]+ s: noise variances \[", out)
     assert "module 3: quadrature pass 1 (201 nodes on [" in out
     assert re.search(r"quadrature pass 2 \(201 nodes on .* \d+ carry the mass\)", out)
     assert re.search(r"module 3 done in [\d.]+ s \(quadrature\): posterior mean", out)
+    assert "[ModularBayesCalibrator] emulator of 30 simulations: 100%" in out
     fit(TWO, verbose=2, n_jobs=1, **SMALL_MCMC)
-    out = capsys.readouterr().out
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    out = captured.err
     assert "running 2 chain(s) of 100 burn-in + 100 steps" in out
+    assert "MCMC: 2 chain(s): 100%" in out
     for c in range(2):
         assert re.search(rf"chain {c} done: acceptance 0\.\d\d", out)
-        # verbose=2: progress inside each chain (in this process, n_jobs=1)
+        # verbose=2: detail lines of each chain, from the parent process
         assert f"chain {c}: burn-in of 100 steps done in" in out
-        assert f"chain {c}: 50/100 draws" in out
+        assert f"chain {c}: 100 draws done in" in out
     assert re.search(r"module 3 done .* \(mcmc\): .* R-hat \[", out)
 
 
@@ -943,7 +950,7 @@ def test_unresolved_quadrature_posterior_is_reported(monkeypatch, capsys):
     assert np.isfinite(cal.theta_mean_[0])
     ours = [w for w in record if "narrower than the quadrature" in str(w.message)]
     assert {w.filename for w in ours} == {__file__}
-    out = capsys.readouterr().out
+    out = capsys.readouterr().err
     assert "quadrature pass 8 (201 nodes" in out and "pass 9" not in out
 
 
