@@ -30,7 +30,7 @@ import warnings
 from typing import ClassVar
 
 import numpy as np
-from joblib import Parallel, delayed
+from joblib import Parallel, delayed, effective_n_jobs
 from scipy import stats
 from sklearn.base import BaseEstimator, clone
 from sklearn.exceptions import ConvergenceWarning
@@ -53,6 +53,7 @@ from skmba._preposterior import (
     posterior_block,
 )
 from skmba._priors import check_prior
+from skmba._progress import Progress, results_as_ready
 from skmba._search import all_subsets, check_max_size, genetic, greedy_forward
 from skmba._subset_likelihood import FieldDesignEmulator
 from skmba._summary import design_table, jackknife_mcse
@@ -70,6 +71,13 @@ from skmba._validation import (
 SEARCHES = ("exhaustive", "greedy", "genetic")
 CRITERIA = ("trace", "det", "max_eig")
 DEFAULT_N_DESIGN = 25
+#: An exhaustive search expected to take longer than this (in seconds, after
+#: its first task) warns (a UserWarning), whatever ``verbose``.
+LONG_SEARCH_SECONDS = 600.0
+# Phase 2 runs in joblib tasks of about this many (subset, replicate)
+# posterior evaluations (a few ms each on a small design): a bar update
+# every second or so, and a first estimate of the search's time early.
+_TASK_EVALUATIONS = 200
 
 
 class PreposteriorDesigner(BaseEstimator):
@@ -170,7 +178,15 @@ class PreposteriorDesigner(BaseEstimator):
         Genetic search only (it also stops after 5 generations without
         improvement).
     verbose : int, default=0
-        Print the progress of the Monte Carlo loop and of the search.
+        Progress on standard error, prefixed ``[PreposteriorDesigner]``: 0
+        prints nothing; 1 shows progress bars (the emulator's restarts, the
+        replicates of phase 1, the (subset, replicate) posterior
+        evaluations of phase 2, also when joblib workers run them) and a
+        line per step, with, before phase 2 of an exhaustive search, its
+        number of subsets and evaluations and, after its first task, the
+        expected time; 2 also detail lines. Results do not depend on it.
+        An exhaustive search expected to take more than
+        ``LONG_SEARCH_SECONDS`` (10 minutes) warns, whatever ``verbose``.
     prior_units : {"standardised", "user"}, default="standardised"
         Units of the ``variance`` and ``mean`` of ``discrepancy_prior`` and of
         ``noise_prior``. ``"standardised"``: relative to each response's
@@ -388,6 +404,7 @@ class PreposteriorDesigner(BaseEstimator):
             Y,
             **module_settings(cal)["emulator"],
             random_state=seeds[0],
+            progress=self._progress(),
         )
         priors = check_design_priors(
             self.discrepancy_prior,
@@ -405,7 +422,14 @@ class PreposteriorDesigner(BaseEstimator):
         # Step 2, phase 1: replicates and (fast) their discrepancy estimates.
         sequences = children[4].spawn(self.n_mc)
         parallel = Parallel(n_jobs=self.n_jobs)
-        replicates = parallel(delayed(draw_replicate)(ctx, s) for s in sequences)
+        replicates = []
+        tasks = (delayed(draw_replicate)(ctx, s) for s in sequences)
+        with self._progress().bar(
+            self.n_mc, "phase 1: replicates", unit="replicate"
+        ) as bar:
+            for rep in results_as_ready(tasks, self.n_jobs):
+                replicates.append(rep)
+                bar.update(1)
         self._log(f"phase 1: {self.n_mc} replicates", started)
 
         # Phase 2: posterior moments for the subsets the search asks for.
@@ -519,45 +543,127 @@ class PreposteriorDesigner(BaseEstimator):
         return ctx
 
     def _search(self, parallel, ctx, replicates, q, max_size, prior_sd, seed, started):
-        """Phase 2: the posterior moments of every subset the search scores."""
+        """Phase 2: the posterior moments of every subset the search scores.
+
+        Each batch of new subsets the search asks for runs in joblib tasks
+        of a block of replicates and a chunk of subsets
+        (:meth:`_posterior_moments`); a bar counts the (subset, replicate)
+        evaluations. An exhaustive search scores all its subsets in one
+        batch, announced with its size before it starts.
+        """
         results = {}
+        progress = self._progress()
         n_tasks = max(1, min(self.n_mc, 4 * abs(parallel.n_jobs or 1)))
-        blocks = np.array_split(np.arange(self.n_mc), n_tasks)
+        blocks = [b for b in np.array_split(np.arange(self.n_mc), n_tasks) if len(b)]
+        exhaustive = all_subsets(q, max_size) if self.search == "exhaustive" else None
+        if exhaustive is not None:
+            n_subsets = len(exhaustive)
+            progress.info(
+                f"phase 2: exhaustive search over {n_subsets} subsets (of at most "
+                f"{max_size} of {q} responses) x {self.n_mc} replicates = "
+                f"{n_subsets * self.n_mc} posterior evaluations"
+            )
+        elif self.search == "greedy":
+            n_subsets = sum(q - k for k in range(max_size))
+        else:
+            n_subsets = q + self.population_size
+        bar = progress.bar(
+            n_subsets * self.n_mc, f"phase 2: {self.search} search", unit="eval"
+        )
 
         def score(subsets):
             subsets = [tuple(s) for s in subsets]
             new = [s for s in dict.fromkeys(subsets) if s not in results]
             if new:
-                parts = parallel(
-                    delayed(posterior_block)(ctx, [replicates[i] for i in block], new)
-                    for block in blocks
-                    if len(block)
+                bar.total = max(bar.total, bar.n + len(new) * self.n_mc)
+                results.update(
+                    self._posterior_moments(
+                        ctx, replicates, new, blocks, bar, exhaustive is not None
+                    )
                 )
-                means = np.concatenate([p[0] for p in parts])
-                covs = np.concatenate([p[1] for p in parts])
-                for j, s in enumerate(new):
-                    results[s] = (means[:, j], covs[:, j])
-                self._log(f"scored {len(results)} subsets", started)
+                progress.detail(
+                    f"scored {len(results)} subsets "
+                    f"({time.perf_counter() - started:.1f} s)"
+                )
             return [
                 criterion_value(results[s][1].mean(axis=0), prior_sd, self.criterion)
                 for s in subsets
             ]
 
-        score([(j,) for j in range(q)])
-        if self.search == "exhaustive":
-            score(all_subsets(q, max_size))
-        elif self.search == "greedy":
-            greedy_forward(score, q, max_size)
-        else:
-            genetic(
-                score,
-                q,
-                max_size,
-                population_size=self.population_size,
-                n_generations=self.n_generations,
-                random_state=seed,
-            )
+        with bar:
+            if exhaustive is not None:
+                score(exhaustive)
+            else:
+                score([(j,) for j in range(q)])
+                if self.search == "greedy":
+                    greedy_forward(score, q, max_size)
+                else:
+                    genetic(
+                        score,
+                        q,
+                        max_size,
+                        population_size=self.population_size,
+                        n_generations=self.n_generations,
+                        random_state=seed,
+                    )
         return results
+
+    def _posterior_moments(self, ctx, replicates, subsets, blocks, bar, estimate):
+        """Posterior means and covariances of ``subsets`` for every replicate.
+
+        Tasks of a block of replicates and a chunk of about
+        ``_TASK_EVALUATIONS / len(block)`` subsets, taken with a stride so
+        that every chunk mixes small and large subsets; the bar advances as
+        each task returns. With ``estimate``, the first task's time gives
+        the expected time of all (a line, and a warning beyond
+        ``LONG_SEARCH_SECONDS``). Each (subset, replicate) is computed on
+        its own seed, so the tasks do not change the results. Returns
+        ``{subset: (means (n_mc, r), covs (n_mc, r, r))}``.
+        """
+        size = max(len(block) for block in blocks)
+        n_chunks = min(len(subsets), -(-len(subsets) * size // _TASK_EVALUATIONS))
+        chunks = [subsets[c::n_chunks] for c in range(n_chunks)]
+        tasks = [(chunk, block) for chunk in chunks for block in blocks]
+        calls = (
+            delayed(_timed_posterior_block)(ctx, [replicates[i] for i in block], chunk)
+            for chunk, block in tasks
+        )
+        parts = []
+        for k, (part, seconds) in enumerate(results_as_ready(calls, self.n_jobs)):
+            chunk, block = tasks[k]
+            parts.append(part)
+            bar.update(len(chunk) * len(block))
+            if k == 0 and estimate:
+                self._estimate(seconds, len(chunk) * len(block), len(tasks))
+        out = {}
+        for c, chunk in enumerate(chunks):
+            own = parts[c * len(blocks) : (c + 1) * len(blocks)]
+            means = np.concatenate([p[0] for p in own])
+            covs = np.concatenate([p[1] for p in own])
+            for j, s in enumerate(chunk):
+                out[s] = (means[:, j], covs[:, j])
+        return {s: out[s] for s in subsets}
+
+    def _estimate(self, seconds, n_evaluations, n_tasks):
+        """The expected time of phase 2 from its first task: a line, and a
+        warning beyond ``LONG_SEARCH_SECONDS``."""
+        workers = max(1, min(n_tasks, effective_n_jobs(self.n_jobs)))
+        expected = seconds * n_tasks / workers
+        self._progress().info(
+            f"phase 2: expected time about {_duration(expected)} (first task: "
+            f"{n_evaluations} evaluations in {seconds:.2f} s; {n_tasks} tasks on "
+            f"{workers} worker(s))"
+        )
+        if expected > LONG_SEARCH_SECONDS:
+            warnings.warn(
+                f"The exhaustive search is expected to take about "
+                f"{_duration(expected)} ({n_tasks} tasks of about {seconds:.1f} s "
+                f"on {workers} worker(s)). It goes on; to shorten it, interrupt "
+                "and lower n_mc, set max_responses, use search='greedy' or "
+                "'genetic', or raise n_jobs.",
+                UserWarning,
+                stacklevel=7,  # _posterior_moments, score, _search, _fit, fit
+            )
 
     def _set_fitted(self, results, replicates, prior, prior_sd, q, X_design, gp):
         """Step 3 and every fitted attribute, in one place."""
@@ -591,10 +697,13 @@ class PreposteriorDesigner(BaseEstimator):
         single = np.array([score(results[(j,)][1].mean(axis=0)) for j in range(q)])
         self.ranking_ = stats.rankdata(single, method="min").astype(int)
 
+    def _progress(self):
+        """Where ``fit`` reports, by ``verbose`` (:mod:`skmba._progress`)."""
+        return Progress(self.verbose, "PreposteriorDesigner")
+
     def _log(self, message, started):
-        if self.verbose:
-            elapsed = time.perf_counter() - started
-            print(f"[PreposteriorDesigner] {message} ({elapsed:.1f} s)")
+        elapsed = time.perf_counter() - started
+        self._progress().info(f"{message} ({elapsed:.1f} s)")
 
     def summary(self, response_names=None):
         """The scored sensor subsets, best (lowest score) first.
@@ -644,3 +753,25 @@ class PreposteriorDesigner(BaseEstimator):
                 "subsets (see subsets_). Use search='exhaustive' to score all."
             )
         return float(self.scores_[self.subsets_.index(key)])
+
+
+def _timed_posterior_block(ctx, replicates, subsets):
+    """:func:`~skmba._preposterior.posterior_block` and its time in seconds."""
+    started = time.perf_counter()
+    moments = posterior_block(ctx, replicates, subsets)
+    return moments, time.perf_counter() - started
+
+
+def _duration(seconds):
+    """A time for people: ``"40 s"``, ``"12 min"``, ``"3.5 h"``.
+
+    Examples
+    --------
+    >>> _duration(40.2), _duration(725.0), _duration(12600.0)
+    ('40 s', '12 min', '3.5 h')
+    """
+    if seconds < 120:
+        return f"{seconds:.0f} s"
+    if seconds < 7200:
+        return f"{seconds / 60:.0f} min"
+    return f"{seconds / 3600:.1f} h"

@@ -161,12 +161,13 @@ def test_verbose_reports_progress(small, capsys):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         designer(data.prior, n_mc=2, max_responses=1, verbose=1).fit(X, data.y_sim)
-    out = capsys.readouterr().out
-    assert "phase 1: 2 replicates" in out and "best subset" in out
+    captured = capsys.readouterr()
+    assert captured.out == ""  # progress goes to standard error
+    assert "phase 1: 2 replicates" in captured.err and "best subset" in captured.err
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         designer(data.prior, n_mc=2, max_responses=1).fit(X, data.y_sim)
-    assert capsys.readouterr().out == ""
+    assert capsys.readouterr() == ("", "")
 
 
 @pytest.mark.parametrize(
