@@ -15,11 +15,9 @@ Examples
 2
 """
 
-import time
 from typing import ClassVar
 
 import numpy as np
-from scipy import stats
 from sklearn.base import BaseEstimator, MultiOutputMixin, RegressorMixin
 from sklearn.gaussian_process.kernels import Kernel
 from sklearn.utils.validation import check_is_fitted, validate_data
@@ -28,41 +26,35 @@ from threadpoolctl import threadpool_limits
 from skmba._discrepancy import (
     DISCREPANCY_OPTIMIZERS,
     check_discrepancy_ranges,
-    fit_discrepancy,
-    ranges_text,
 )
-from skmba._emulator import Standardizer, fit_emulator
 from skmba._field_data import check_field_data, warn_few_distinct_inputs
 from skmba._integration import (
     INTEGRATIONS,
     MODULE2_VARIANCES,
-    integrate_over_prior,
     one_parameter_rule,
 )
-from skmba._linalg import FEWER_FIELD_DATA, FLOAT_BYTES, check_memory, n_workers
+from skmba._mba import (
+    OPTIONAL_FITTED,
+    checked_prior,
+    fitted_attributes,
+    run_modules,
+    simulations_for,
+)
 from skmba._posterior import (
     SAMPLERS,
-    GlobalModel,
-    LogPosterior,
-    posterior_by_mcmc,
-    posterior_by_quadrature,
 )
-from skmba._prediction import PredictionRule, predict_component, prediction_rule
-from skmba._priors import check_prior
+from skmba._prediction import PredictionRule, predict_component
 from skmba._progress import Progress
-from skmba._regression import REGRESSIONS, n_regression_terms
+from skmba._regression import REGRESSIONS
 from skmba._simulations import (
-    check_design_size,
     check_simulation_design,
     check_simulator_runs,
-    collect_simulations,
     given_simulations,
 )
 from skmba._summary import (
     calibration_table,
     calibration_text,
     inference_data,
-    parameter_names,
 )
 from skmba._validation import (
     Boolean,
@@ -77,24 +69,7 @@ from skmba._validation import (
     validate_parameter_table,
 )
 
-
-def _check_global_memory(N, n, q, P, jobs):
-    """Room for the module-3 global model, before it is built.
-
-    About six nq x nq matrices (the fixed part and, per factorisation,
-    the Schur complement, its Kronecker term and Cholesky factor), plus
-    the (N, n) cross-correlations and the (N q, P) whitened regression;
-    each parallel chain holds its own factorisation.
-    """
-    needed = FLOAT_BYTES * (
-        (3 + 3 * jobs) * (n * q) ** 2 + 2 * jobs * N * n + 2 * N * q * P
-    )
-    check_memory(
-        needed,
-        f"The module-3 global model ({N} simulations and {n} field "
-        f"observations x {q} responses)",
-        FEWER_FIELD_DATA,
-    )
+_KERNEL = InstanceOf(Kernel, what="an sklearn Kernel", allow_none=True)
 
 
 class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
@@ -112,14 +87,11 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
     Parameters
     ----------
     simulator : callable, default=None
-        ``simulator(X, theta) -> Y`` with ``X`` (n, d), ``theta`` (n, r) taken
-        row by row and ``Y`` (n, q). When given, ``fit`` runs it on a Latin
-        hypercube over the range of ``X`` times the prior's support (its
-        0.999 central interval for unbounded priors). It is the user's: to
-        pickle the estimator it must be picklable (a module-level function
-        or an instance of a module-level class, not a lambda or a local
-        function). It is not needed after ``fit``: ``set_params(
-        simulator=None)`` keeps a fitted calibrator working (see Notes).
+        ``simulator(X, theta) -> Y``, called on arrays of runs: ``X`` (n, d),
+        ``theta`` (n, r), ``Y`` (n, q). ``fit`` runs it on a Latin hypercube
+        over the range of ``X`` times the prior's 0.999 central interval.
+        Not needed after ``fit`` (``set_params(simulator=None)`` before
+        pickling one that cannot be pickled; see the User Guide).
     prior : list or dict of frozen scipy.stats distributions, frozen \
             multivariate_normal or object with ``logpdf``/``rvs``, default=None
         Prior of the ``r`` calibration parameters. A dict ``{name:
@@ -152,11 +124,10 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         Draws per chain discarded; the proposal adapts during burn-in only.
     n_jobs : int, default=None
         Parallel chains, module-2 node blocks and module-4 predictions,
-        through joblib (so ``joblib.parallel_config(backend="dask")``
-        works). ``None`` means 1 unless a joblib context says otherwise,
-        ``-1`` all cores; 0 is invalid. During ``fit`` and the predictions
-        BLAS is held to one thread: the parallelism is joblib's.
-    random_state : int, RandomState instance or None, default=None
+        through joblib (``joblib.parallel_config(backend="dask")`` works);
+        ``-1`` all cores. BLAS is held to one thread during ``fit`` and the
+        predictions: the parallelism is joblib's.
+    random_state : int, RandomState, Generator, SeedSequence or None
         The same seed gives bit-identical results for any ``n_jobs`` and
         joblib backend.
     n_integration_nodes : int, default=None
@@ -285,10 +256,8 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         ],
         "prior": "no_validation",  # check_prior, in fit
         "n_simulations": [Count(minimum=2, allow_none=True)],
-        "model_kernel": [InstanceOf(Kernel, what="an sklearn Kernel", allow_none=True)],
-        "discrepancy_kernel": [
-            InstanceOf(Kernel, what="an sklearn Kernel", allow_none=True)
-        ],
+        "model_kernel": [_KERNEL],
+        "discrepancy_kernel": [_KERNEL],
         "regression": [Options(REGRESSIONS, hint="thesis Table 3.1")],
         "discrepancy_regression": [Options(REGRESSIONS, hint="thesis Table 3.1")],
         "noise": [Boolean()],
@@ -358,10 +327,6 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         self.verbose = verbose
 
     # -------------------------------------------------------------- fit
-    def _progress(self):
-        """Where ``fit`` reports, by ``verbose`` (:mod:`skmba._progress`)."""
-        return Progress(self.verbose, "ModularBayesCalibrator")
-
     def fit(self, X, y, *, X_sim=None, theta_sim=None, y_sim=None):
         """Run modules 1-3 (module 4 runs at prediction time).
 
@@ -416,7 +381,7 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
                     "simulator again."
                 )
             raise
-        self._set_fitted(**fitted)
+        self._set_fitted(fitted)
         return self
 
     def _fit(self, X, y, X_sim, theta_sim, y_sim, partial):
@@ -434,10 +399,11 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         # modules 1, 2a, 2b and 3.
         seeds = [int_seed(c) for c in seed_sequence(self.random_state).spawn(5)]
         given = given_simulations(X, q, X_sim, theta_sim, y_sim)
-        prior = _checked_prior(self.prior, given)
+        prior = checked_prior(self.prior, given)
         for name, other in (("integration", "qmc"), ("sampler", "mcmc")):
             one_parameter_rule(name, getattr(self, name), prior.dim, several=other)
-        sims = self._simulations(X, q, prior, given, seeds[0])
+        progress = Progress(self.verbose, "ModularBayesCalibrator")
+        sims = simulations_for(self, X, q, prior, given, seeds[0], progress)
         partial["simulations"] = sims
         check_simulator_runs(sims)
         if sims.theta.shape[1] != prior.dim:
@@ -452,71 +418,15 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
             Y_ndim=np.ndim(y),
             prior=prior,
             sims=sims,
-            **_run_modules(self, X, Y, sims, prior, ranges, seeds[1:]),
+            **run_modules(self, X, Y, sims, prior, ranges, seeds[1:], progress),
         )
 
-    def _simulations(self, X, q, prior, given, seed):
-        """The given runs and the simulator's, on a Latin hypercube."""
-        k = X.shape[1] + prior.dim
-        n_runs = (self.n_simulations or 10 * k) if self.simulator is not None else 0
-        check_design_size(
-            n_runs + (0 if given is None else len(given.X)), self.regression, k
-        )
-        return collect_simulations(
-            self.simulator, X, q, prior, given, n_runs, seed, self._progress()
-        )
-
-    def _set_fitted(
-        self,
-        X,
-        y,
-        Y_ndim,
-        prior,
-        sims,
-        scaler,
-        emulator,
-        disc,
-        log_post,
-        posterior,
-        rule,
-    ):
-        """Every fitted attribute, in one place (user units)."""
-        for name in (
-            "acceptance_rate_",
-            "rhat_",
-            "ess_",
-            "theta_chains_",
-            "theta_log_posterior_",
-            "theta_nodes_",
-            "theta_weights_",
-        ):
+    def _set_fitted(self, fitted):
+        """Every fitted attribute, in one place (see :func:`fitted_attributes`)."""
+        for name in OPTIONAL_FITTED:
             self.__dict__.pop(name, None)
-        self._y_ndim = Y_ndim
-        self.prior_ = prior
-        self.parameter_names_ = parameter_names(prior)
-        self.X_obs_, self.y_obs_ = X, y
-        self.X_sim_, self.theta_sim_, self.y_sim_ = sims.X, sims.theta, sims.y
-        self.X_mean_, self.X_scale_ = scaler.X_mean, scaler.X_scale
-        self.theta_offset_, self.theta_scale_ = scaler.theta_offset, scaler.theta_scale
-        self.y_mean_, self.y_scale_ = scaler.y_mean, scaler.y_scale
-        self.model_gp_ = emulator.gp
-        self.discrepancy_kernel_ = disc.kernel_
-        self.discrepancy_sigma2_ = scaler.y_covariance_to_user(disc.sigma2)
-        self.discrepancy_beta_ = disc.beta * scaler.y_scale
-        self.noise_ = disc.noise * scaler.y_scale**2
-        self.theta_samples_ = posterior.samples
-        self.theta_mean_, self.theta_cov_ = posterior.mean, posterior.cov
-        if posterior.method == "quadrature":
-            self.theta_nodes_, self.theta_weights_ = posterior.nodes, posterior.weights
-        else:
-            self.theta_chains_ = posterior.chains
-            self.theta_log_posterior_ = posterior.log_density
-            self.acceptance_rate_ = posterior.acceptance_rate
-            self.rhat_, self.ess_ = posterior.rhat, posterior.ess
-        self.global_model_ = log_post.model
-        self._scaler = scaler
-        self._log_posterior = log_post
-        self._prediction_rule = rule
+        for name, value in fitted_attributes(**fitted).items():
+            setattr(self, name, value)
 
     # -------------------------------------------------- module 3 and 4
     def log_posterior(self, theta):
@@ -569,23 +479,13 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
     def to_inference_data(self, *, n_prior_draws=None, random_state=0):
         """The posterior, prior and field data as an ArviZ object.
 
-        Built with ``arviz.from_dict``: an ``InferenceData`` with ArviZ 0.x,
-        a ``DataTree`` with ArviZ 1.x. Groups:
-
-        * ``posterior``: one variable per name of ``parameter_names_``, of
-          shape (chain, draw) = ``(n_chains, n_samples)`` from
-          ``theta_chains_``. With quadrature (one parameter) it holds the
-          draws ``theta_samples_`` in a random order as one pseudo-chain of
-          shape (1, n_samples); its ``note`` attribute says they are
-          independent draws, not a chain.
-        * ``sample_stats`` (MCMC only): ``lp``, the log posterior
-          (:meth:`log_posterior`) at each draw, and ``acceptance_rate``,
-          each chain's rate repeated over its draws.
-        * ``prior``: draws of ``prior_`` (one pseudo-chain), same names.
-        * ``observed_data`` and ``constant_data``: the field responses
-          (``response_names_`` when recorded, else ``y0, y1, ...``) and the
-          field inputs (``feature_names_in_``, else ``x0, x1, ...``), along
-          the dimension ``observation``.
+        Built with ``arviz.from_dict`` (an ``InferenceData`` with ArviZ 0.x,
+        a ``DataTree`` with 1.x) with the groups ``posterior`` (one variable
+        per name of ``parameter_names_``, dims (chain, draw); with
+        quadrature one pseudo-chain of independent draws, said in its
+        ``note`` attribute), ``sample_stats`` (MCMC: ``lp``,
+        ``acceptance_rate``), ``prior``, ``observed_data`` and
+        ``constant_data``. Read more in :ref:`user-guide-diagnostics`.
 
         Parameters
         ----------
@@ -612,22 +512,17 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         Parameters
         ----------
         kind : {"table", "text"}, default="table"
-            ``"table"``: one row per parameter (``parameter_names_``) with
-            the columns ``mean``, ``sd`` (``theta_mean_`` and the square
-            roots of the diagonal of ``theta_cov_``), ``2.5%`` and
-            ``97.5%`` (quantiles of ``theta_samples_``), ``prior_mean``,
-            ``prior_sd``, ``sd_ratio`` (posterior over prior sd: near 1,
-            the data taught little), ``r_hat`` and ``ess_bulk`` (``rhat_``,
-            ``ess_``; NaN with quadrature) and, when the calibrator has
-            ``identifiability_``, ``identifiability``. ``"text"``: the same
-            on one line, for logs.
+            ``"table"``: one row per parameter with ``mean``, ``sd``,
+            ``2.5%``, ``97.5%``, ``prior_mean``, ``prior_sd``, ``sd_ratio``
+            (posterior over prior sd), ``r_hat``, ``ess_bulk`` (NaN with
+            quadrature) and ``identifiability`` when the calibrator has it.
+            ``"text"``: the same on one line, for logs.
 
         Returns
         -------
         pandas.DataFrame, numpy structured array or str
             A DataFrame indexed by parameter name when pandas is installed,
-            else a structured array with a first field ``parameter``; a
-            string for ``kind="text"``.
+            else a structured array with a first field ``parameter``.
         """
         check_is_fitted(self, "theta_mean_")
         if kind == "text":
@@ -677,160 +572,3 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         :meth:`predict_reality` in the mean.
         """
         return self._predict_component(X, "discrepancy", return_std)
-
-
-def module_settings(cal):
-    """A calibrator's MBA settings as keyword arguments of the module functions.
-
-    The one translation of the parameters into the calls of
-    :func:`~skmba._emulator.fit_emulator` (``"emulator"``),
-    :func:`~skmba._integration.integrate_over_prior` (``"integration"``) and
-    :func:`~skmba._discrepancy.fit_discrepancy` (``"discrepancy"``), shared
-    by the calibrator and the sensor designer.
-
-    Examples
-    --------
-    >>> module_settings(ModularBayesCalibrator(noise=False))["discrepancy"]["noise"]
-    False
-    """
-    return {
-        "emulator": dict(
-            kernel=cal.model_kernel,
-            regression=cal.regression,
-            alpha=cal.emulator_alpha,
-            n_restarts_optimizer=cal.n_restarts_optimizer,
-        ),
-        "integration": dict(
-            rule=cal.integration,
-            n_nodes=cal.n_integration_nodes,
-            variance=cal.module2_variance,
-            n_jobs=cal.n_jobs,
-        ),
-        "discrepancy": dict(
-            kernel=cal.discrepancy_kernel,
-            regression=cal.discrepancy_regression,
-            noise=cal.noise,
-            optimizer=cal.discrepancy_optimizer,
-            n_restarts=cal.n_restarts_optimizer,
-        ),
-    }
-
-
-def _run_modules(est, X, Y, sims, prior, ranges, seeds):
-    """Modules 1-3 with the estimator's parameters; the fitted pieces."""
-    progress = est._progress()
-    say = progress.info
-    q = Y.shape[1]
-    started = time.perf_counter()
-    scaler = Standardizer.from_simulations(sims.X, sims.theta, sims.y)
-    emulator = fit_emulator(
-        scaler,
-        sims.X,
-        sims.theta,
-        sims.y,
-        **module_settings(est)["emulator"],
-        random_state=seeds[0],
-        progress=progress,
-    )
-    say(
-        f"module 1 done in {time.perf_counter() - started:.1f} s: emulator of "
-        f"{len(sims.X)} simulations, {emulator.Z.shape[1]} inputs, {q} "
-        "response(s)"
-    )
-    Xs, Ys = scaler.x(X), scaler.y(Y)
-    disc = _module2(est, emulator, scaler, prior, Xs, Ys, ranges, seeds)
-    return dict(
-        scaler=scaler,
-        emulator=emulator,
-        disc=disc,
-        **_module3(est, emulator, scaler, prior, sims, Xs, Ys, disc, seeds[3]),
-    )
-
-
-def _module2(est, emulator, scaler, prior, Xs, Ys, ranges, seeds):
-    """Module 2: the integrated emulator, then the discrepancy and noise."""
-    progress = est._progress()
-    say = progress.info
-    started = time.perf_counter()
-    integrated = integrate_over_prior(
-        emulator,
-        scaler,
-        prior,
-        Xs,
-        **module_settings(est)["integration"],
-        random_state=seeds[1],
-    )
-    disc = fit_discrepancy(
-        Xs,
-        Ys - integrated.mean,
-        integrated.cov,
-        **module_settings(est)["discrepancy"],
-        ranges=ranges,
-        random_state=seeds[2],
-        progress=progress,
-    )
-    say(
-        f"module 2 done in {time.perf_counter() - started:.1f} s: noise "
-        f"variances {np.array2string(disc.noise * scaler.y_scale**2, precision=3)}"
-        ", discrepancy variances / simulated variances "
-        f"{np.array2string(np.diag(disc.sigma2), precision=3)} "
-        f"(range {ranges_text(ranges)})"
-    )
-    return disc
-
-
-def _module3(est, emulator, scaler, prior, sims, Xs, Ys, disc, seed):
-    """Module 3: the posterior of theta, and module 4's rule over it."""
-    progress = est._progress()
-    say = progress.info
-    started = time.perf_counter()
-    (n, d), q = Xs.shape, Ys.shape[1]
-    P = q * (
-        n_regression_terms(est.regression, emulator.Z.shape[1])
-        + n_regression_terms(est.discrepancy_regression, d)
-    )
-    jobs = n_workers(est.n_jobs) if prior.dim > 1 else 1
-    _check_global_memory(emulator.N, n, q, P, jobs)
-    log_post = LogPosterior(
-        prior, GlobalModel(emulator, Xs, Ys, disc), scaler, sims.theta
-    )
-    sampler = one_parameter_rule("sampler", est.sampler, prior.dim, several="mcmc")
-    if sampler == "quadrature":
-        posterior = posterior_by_quadrature(
-            log_post,
-            est.n_samples,
-            random_state=seed,
-            say=say,
-        )
-    else:
-        posterior = posterior_by_mcmc(
-            log_post,
-            n_chains=est.n_chains,
-            n_samples=est.n_samples,
-            burn_in=est.burn_in,
-            n_jobs=est.n_jobs,
-            random_state=seed,
-            progress=progress,
-        )
-    rule = prediction_rule(posterior, log_post)
-    say(posterior.summary(time.perf_counter() - started))
-    return dict(
-        log_post=log_post,
-        posterior=posterior,
-        rule=rule,
-    )
-
-
-def _checked_prior(prior, given):
-    """The checked prior; uniform over ``theta_sim`` when None."""
-    if prior is not None:
-        return check_prior(prior, None if given is None else given.theta.shape[1])
-    if given is None:
-        raise ValueError(
-            "prior is required when the simulations are run by the "
-            "simulator: pass e.g. prior=[scipy.stats.uniform(lo, hi - lo)]."
-        )
-    t = given.theta
-    return check_prior(
-        [stats.uniform(lo, hi - lo) for lo, hi in zip(t.min(0), t.max(0), strict=True)]
-    )

@@ -14,16 +14,19 @@ Examples
 2.0
 """
 
+import time
 import warnings
 from numbers import Real
 
 import numpy as np
+from joblib import delayed, effective_n_jobs
 from scipy import stats
 from sklearn.base import clone
 from sklearn.exceptions import ConvergenceWarning
 
 from skmba._discrepancy import TABLE_6_2_RANGES, check_interval, fit_discrepancy
 from skmba._importance import posterior_moments
+from skmba._progress import results_as_ready
 from skmba._regression import regression_basis
 from skmba._subset_likelihood import SubsetLikelihood
 from skmba._validation import int_seed
@@ -271,3 +274,95 @@ def check_design_priors(discrepancy_prior, noise_prior, prior_units, d, q, y_sca
             lo, hi = out[key]
             out[key] = (lo / y_scale**power, hi / y_scale**power)
     return out
+
+
+#: An exhaustive search expected to take longer than this (in seconds, after
+#: its first task) warns (a UserWarning), whatever ``verbose``.
+LONG_SEARCH_SECONDS = 600.0
+# Phase 2 runs in joblib tasks of about this many (subset, replicate)
+# posterior evaluations (a few ms each on a small design): a bar update
+# every second or so, and a first estimate of the search's time early.
+_TASK_EVALUATIONS = 200
+
+
+def subset_moments(
+    ctx, replicates, subsets, blocks, bar, *, estimate, n_jobs, progress
+):
+    """Posterior means and covariances of ``subsets`` for every replicate.
+
+    Tasks of a block of replicates and a chunk of about
+    ``_TASK_EVALUATIONS / len(block)`` subsets, taken with a stride so
+    that every chunk mixes small and large subsets; the bar advances as
+    each task returns. With ``estimate``, the first task's time gives
+    the expected time of all (a line, and a warning beyond
+    ``LONG_SEARCH_SECONDS``). Each (subset, replicate) is computed on
+    its own seed, so the tasks do not change the results. Returns
+    ``{subset: (means (n_mc, r), covs (n_mc, r, r))}``.
+    """
+    size = max(len(block) for block in blocks)
+    n_chunks = min(len(subsets), -(-len(subsets) * size // _TASK_EVALUATIONS))
+    chunks = [subsets[c::n_chunks] for c in range(n_chunks)]
+    tasks = [(chunk, block) for chunk in chunks for block in blocks]
+    calls = (
+        delayed(_timed_posterior_block)(ctx, [replicates[i] for i in block], chunk)
+        for chunk, block in tasks
+    )
+    parts = []
+    for k, (part, seconds) in enumerate(results_as_ready(calls, n_jobs)):
+        chunk, block = tasks[k]
+        parts.append(part)
+        bar.update(len(chunk) * len(block))
+        if k == 0 and estimate:
+            _announce(seconds, len(chunk) * len(block), len(tasks), n_jobs, progress)
+    out = {}
+    for c, chunk in enumerate(chunks):
+        own = parts[c * len(blocks) : (c + 1) * len(blocks)]
+        means = np.concatenate([p[0] for p in own])
+        covs = np.concatenate([p[1] for p in own])
+        for j, s in enumerate(chunk):
+            out[s] = (means[:, j], covs[:, j])
+    return {s: out[s] for s in subsets}
+
+
+def _announce(seconds, n_evaluations, n_tasks, n_jobs, progress):
+    """The expected time of phase 2 from its first task: a line, and a
+    warning beyond ``LONG_SEARCH_SECONDS``."""
+    workers = max(1, min(n_tasks, effective_n_jobs(n_jobs)))
+    expected = seconds * n_tasks / workers
+    progress.info(
+        f"phase 2: expected time about {_duration(expected)} (first task: "
+        f"{n_evaluations} evaluations in {seconds:.2f} s; {n_tasks} tasks on "
+        f"{workers} worker(s))"
+    )
+    if expected > LONG_SEARCH_SECONDS:
+        warnings.warn(
+            f"The exhaustive search is expected to take about "
+            f"{_duration(expected)} ({n_tasks} tasks of about {seconds:.1f} s "
+            f"on {workers} worker(s)). It goes on; to shorten it, interrupt "
+            "and lower n_mc, set max_responses, use search='greedy' or "
+            "'genetic', or raise n_jobs.",
+            UserWarning,
+            stacklevel=7,  # subset_moments, score, _search, _fit, fit, caller
+        )
+
+
+def _timed_posterior_block(ctx, replicates, subsets):
+    """:func:`~skmba._preposterior.posterior_block` and its time in seconds."""
+    started = time.perf_counter()
+    moments = posterior_block(ctx, replicates, subsets)
+    return moments, time.perf_counter() - started
+
+
+def _duration(seconds):
+    """A time for people: ``"40 s"``, ``"12 min"``, ``"3.5 h"``.
+
+    Examples
+    --------
+    >>> _duration(40.2), _duration(725.0), _duration(12600.0)
+    ('40 s', '12 min', '3.5 h')
+    """
+    if seconds < 120:
+        return f"{seconds:.0f} s"
+    if seconds < 7200:
+        return f"{seconds / 60:.0f} min"
+    return f"{seconds / 3600:.1f} h"

@@ -30,7 +30,7 @@ import warnings
 from typing import ClassVar
 
 import numpy as np
-from joblib import Parallel, delayed, effective_n_jobs
+from joblib import Parallel, delayed
 from scipy import stats
 from sklearn.base import BaseEstimator, clone
 from sklearn.exceptions import ConvergenceWarning
@@ -38,19 +38,20 @@ from sklearn.utils import check_array
 from sklearn.utils.validation import check_is_fitted, validate_data
 from threadpoolctl import threadpool_limits
 
-from skmba._calibration import ModularBayesCalibrator, module_settings
+from skmba._calibration import ModularBayesCalibrator
 from skmba._discrepancy import (
     discrepancy_kernel,
 )
 from skmba._emulator import Standardizer, fit_emulator
 from skmba._integration import integrate_over_prior
+from skmba._mba import module_settings
 from skmba._preposterior import (
     PRIOR_UNITS,
     MonteCarloContext,
     check_design_priors,
     criterion_value,
     draw_replicate,
-    posterior_block,
+    subset_moments,
 )
 from skmba._priors import check_prior
 from skmba._progress import Progress, results_as_ready
@@ -71,13 +72,6 @@ from skmba._validation import (
 SEARCHES = ("exhaustive", "greedy", "genetic")
 CRITERIA = ("trace", "det", "max_eig")
 DEFAULT_N_DESIGN = 25
-#: An exhaustive search expected to take longer than this (in seconds, after
-#: its first task) warns (a UserWarning), whatever ``verbose``.
-LONG_SEARCH_SECONDS = 600.0
-# Phase 2 runs in joblib tasks of about this many (subset, replicate)
-# posterior evaluations (a few ms each on a small design): a bar update
-# every second or so, and a first estimate of the search's time early.
-_TASK_EVALUATIONS = 200
 
 
 class PreposteriorDesigner(BaseEstimator):
@@ -169,7 +163,7 @@ class PreposteriorDesigner(BaseEstimator):
         Monte Carlo replicates run in parallel through joblib, so that
         ``joblib.parallel_config(backend="dask")`` runs them on a Dask
         cluster.
-    random_state : int, RandomState instance or None, default=None
+    random_state : int, RandomState, Generator, SeedSequence or None
         Seeds are derived per replicate, so results do not depend on
         ``n_jobs``.
     population_size : int, default=20
@@ -546,10 +540,10 @@ class PreposteriorDesigner(BaseEstimator):
         """Phase 2: the posterior moments of every subset the search scores.
 
         Each batch of new subsets the search asks for runs in joblib tasks
-        of a block of replicates and a chunk of subsets
-        (:meth:`_posterior_moments`); a bar counts the (subset, replicate)
-        evaluations. An exhaustive search scores all its subsets in one
-        batch, announced with its size before it starts.
+        of a block of replicates and a chunk of subsets (see
+        :func:`~skmba._preposterior.subset_moments`); a bar counts the
+        (subset, replicate) evaluations. An exhaustive search scores all
+        its subsets in one batch, announced with its size before it starts.
         """
         results = {}
         progress = self._progress()
@@ -577,8 +571,15 @@ class PreposteriorDesigner(BaseEstimator):
             if new:
                 bar.total = max(bar.total, bar.n + len(new) * self.n_mc)
                 results.update(
-                    self._posterior_moments(
-                        ctx, replicates, new, blocks, bar, exhaustive is not None
+                    subset_moments(
+                        ctx,
+                        replicates,
+                        new,
+                        blocks,
+                        bar,
+                        estimate=exhaustive is not None,
+                        n_jobs=self.n_jobs,
+                        progress=progress,
                     )
                 )
                 progress.detail(
@@ -607,63 +608,6 @@ class PreposteriorDesigner(BaseEstimator):
                         random_state=seed,
                     )
         return results
-
-    def _posterior_moments(self, ctx, replicates, subsets, blocks, bar, estimate):
-        """Posterior means and covariances of ``subsets`` for every replicate.
-
-        Tasks of a block of replicates and a chunk of about
-        ``_TASK_EVALUATIONS / len(block)`` subsets, taken with a stride so
-        that every chunk mixes small and large subsets; the bar advances as
-        each task returns. With ``estimate``, the first task's time gives
-        the expected time of all (a line, and a warning beyond
-        ``LONG_SEARCH_SECONDS``). Each (subset, replicate) is computed on
-        its own seed, so the tasks do not change the results. Returns
-        ``{subset: (means (n_mc, r), covs (n_mc, r, r))}``.
-        """
-        size = max(len(block) for block in blocks)
-        n_chunks = min(len(subsets), -(-len(subsets) * size // _TASK_EVALUATIONS))
-        chunks = [subsets[c::n_chunks] for c in range(n_chunks)]
-        tasks = [(chunk, block) for chunk in chunks for block in blocks]
-        calls = (
-            delayed(_timed_posterior_block)(ctx, [replicates[i] for i in block], chunk)
-            for chunk, block in tasks
-        )
-        parts = []
-        for k, (part, seconds) in enumerate(results_as_ready(calls, self.n_jobs)):
-            chunk, block = tasks[k]
-            parts.append(part)
-            bar.update(len(chunk) * len(block))
-            if k == 0 and estimate:
-                self._estimate(seconds, len(chunk) * len(block), len(tasks))
-        out = {}
-        for c, chunk in enumerate(chunks):
-            own = parts[c * len(blocks) : (c + 1) * len(blocks)]
-            means = np.concatenate([p[0] for p in own])
-            covs = np.concatenate([p[1] for p in own])
-            for j, s in enumerate(chunk):
-                out[s] = (means[:, j], covs[:, j])
-        return {s: out[s] for s in subsets}
-
-    def _estimate(self, seconds, n_evaluations, n_tasks):
-        """The expected time of phase 2 from its first task: a line, and a
-        warning beyond ``LONG_SEARCH_SECONDS``."""
-        workers = max(1, min(n_tasks, effective_n_jobs(self.n_jobs)))
-        expected = seconds * n_tasks / workers
-        self._progress().info(
-            f"phase 2: expected time about {_duration(expected)} (first task: "
-            f"{n_evaluations} evaluations in {seconds:.2f} s; {n_tasks} tasks on "
-            f"{workers} worker(s))"
-        )
-        if expected > LONG_SEARCH_SECONDS:
-            warnings.warn(
-                f"The exhaustive search is expected to take about "
-                f"{_duration(expected)} ({n_tasks} tasks of about {seconds:.1f} s "
-                f"on {workers} worker(s)). It goes on; to shorten it, interrupt "
-                "and lower n_mc, set max_responses, use search='greedy' or "
-                "'genetic', or raise n_jobs.",
-                UserWarning,
-                stacklevel=7,  # _posterior_moments, score, _search, _fit, fit
-            )
 
     def _set_fitted(self, results, replicates, prior, prior_sd, q, X_design, gp):
         """Step 3 and every fitted attribute, in one place."""
@@ -753,25 +697,3 @@ class PreposteriorDesigner(BaseEstimator):
                 "subsets (see subsets_). Use search='exhaustive' to score all."
             )
         return float(self.scores_[self.subsets_.index(key)])
-
-
-def _timed_posterior_block(ctx, replicates, subsets):
-    """:func:`~skmba._preposterior.posterior_block` and its time in seconds."""
-    started = time.perf_counter()
-    moments = posterior_block(ctx, replicates, subsets)
-    return moments, time.perf_counter() - started
-
-
-def _duration(seconds):
-    """A time for people: ``"40 s"``, ``"12 min"``, ``"3.5 h"``.
-
-    Examples
-    --------
-    >>> _duration(40.2), _duration(725.0), _duration(12600.0)
-    ('40 s', '12 min', '3.5 h')
-    """
-    if seconds < 120:
-        return f"{seconds:.0f} s"
-    if seconds < 7200:
-        return f"{seconds / 60:.0f} min"
-    return f"{seconds / 3600:.1f} h"

@@ -19,10 +19,10 @@ from sklearn.base import clone
 from sklearn.exceptions import ConvergenceWarning
 from sklearn.gaussian_process.kernels import RBF
 
-import skmba._calibration as calibration
 import skmba._discrepancy as discrepancy_module
 import skmba._integration as integration_module
 import skmba._linalg as linalg_module
+import skmba._mba as mba_module
 import skmba._posterior as posterior_module
 import skmba._prediction as prediction_module
 from skmba import ModularBayesCalibrator
@@ -861,7 +861,7 @@ def test_theta_chains_hold_the_mcmc_draws_and_go_with_quadrature():
 def patch_memory_check(monkeypatch, check):
     """Replace check_memory in every module that budgets memory."""
     for module in (
-        calibration,
+        mba_module,
         integration_module,
         discrepancy_module,
         prediction_module,

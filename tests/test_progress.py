@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 from joblib import delayed
 
+import skmba._preposterior as preposterior
 import skmba._sampling as sampling
-import skmba._sensor_design as sensor_design
 from skmba import ModularBayesCalibrator, PreposteriorDesigner
 from skmba._progress import Progress, as_progress, results_as_ready
 from skmba._sampling import run_chains
@@ -187,7 +187,7 @@ def test_designer_shows_both_phases_and_the_estimate_first(capsys, monkeypatch):
         warnings.simplefilter("ignore")
         quiet = design()
     capsys.readouterr()
-    monkeypatch.setattr(sensor_design, "_TASK_EVALUATIONS", 3)  # several tasks
+    monkeypatch.setattr(preposterior, "_TASK_EVALUATIONS", 3)  # several tasks
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         loud = design(verbose=1)
@@ -210,7 +210,7 @@ def test_designer_shows_both_phases_and_the_estimate_first(capsys, monkeypatch):
 
 
 def test_a_long_exhaustive_search_warns_whatever_verbose(capsys, monkeypatch):
-    monkeypatch.setattr(sensor_design, "LONG_SEARCH_SECONDS", 0.0)
+    monkeypatch.setattr(preposterior, "LONG_SEARCH_SECONDS", 0.0)
     with pytest.warns(UserWarning, match=r"expected to take about .* It goes on") as w:
         design(max_responses=2)
     ours = [x for x in w if "expected to take" in str(x.message)]

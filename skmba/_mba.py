@@ -1,0 +1,276 @@
+"""Modules 1-3 of the MBA run in order with an estimator's settings.
+
+The calibrator's ``fit`` checks the data, then calls :func:`run_modules`:
+module 1 (:mod:`skmba._emulator`), module 2 (:mod:`skmba._integration`,
+:mod:`skmba._discrepancy`) and module 3 (:mod:`skmba._posterior`), and
+:func:`fitted_attributes` turns the results into its fitted attributes.
+:func:`module_settings` is the one translation of the estimator's
+parameters into the module functions' arguments, shared with the sensor
+designer.
+
+Examples
+--------
+>>> from skmba import ModularBayesCalibrator
+>>> from skmba._mba import module_settings
+>>> sorted(module_settings(ModularBayesCalibrator()))
+['discrepancy', 'emulator', 'integration']
+"""
+
+import time
+
+import numpy as np
+from scipy import stats
+
+from skmba._discrepancy import fit_discrepancy, ranges_text
+from skmba._emulator import Standardizer, fit_emulator
+from skmba._integration import integrate_over_prior, one_parameter_rule
+from skmba._linalg import FEWER_FIELD_DATA, FLOAT_BYTES, check_memory, n_workers
+from skmba._posterior import (
+    GlobalModel,
+    LogPosterior,
+    posterior_by_mcmc,
+    posterior_by_quadrature,
+)
+from skmba._prediction import prediction_rule
+from skmba._priors import check_prior
+from skmba._regression import n_regression_terms
+from skmba._simulations import check_design_size, collect_simulations
+from skmba._summary import parameter_names
+
+#: Fitted attributes that only one posterior method sets.
+OPTIONAL_FITTED = (
+    "acceptance_rate_",
+    "rhat_",
+    "ess_",
+    "theta_chains_",
+    "theta_log_posterior_",
+    "theta_nodes_",
+    "theta_weights_",
+)
+
+
+def check_global_memory(N, n, q, P, jobs):
+    """Room for the module-3 global model, before it is built.
+
+    About six nq x nq matrices (the fixed part and, per factorisation,
+    the Schur complement, its Kronecker term and Cholesky factor), plus
+    the (N, n) cross-correlations and the (N q, P) whitened regression;
+    each parallel chain holds its own factorisation.
+    """
+    needed = FLOAT_BYTES * (
+        (3 + 3 * jobs) * (n * q) ** 2 + 2 * jobs * N * n + 2 * N * q * P
+    )
+    check_memory(
+        needed,
+        f"The module-3 global model ({N} simulations and {n} field "
+        f"observations x {q} responses)",
+        FEWER_FIELD_DATA,
+    )
+
+
+def simulations_for(est, X, q, prior, given, seed, progress):
+    """The given runs and the estimator's simulator runs (Latin hypercube)."""
+    k = X.shape[1] + prior.dim
+    n_runs = (est.n_simulations or 10 * k) if est.simulator is not None else 0
+    check_design_size(
+        n_runs + (0 if given is None else len(given.X)), est.regression, k
+    )
+    return collect_simulations(
+        est.simulator, X, q, prior, given, n_runs, seed, progress
+    )
+
+
+def module_settings(cal):
+    """A calibrator's MBA settings as keyword arguments of the module functions.
+
+    The one translation of the parameters into the calls of
+    :func:`~skmba._emulator.fit_emulator` (``"emulator"``),
+    :func:`~skmba._integration.integrate_over_prior` (``"integration"``) and
+    :func:`~skmba._discrepancy.fit_discrepancy` (``"discrepancy"``), shared
+    by the calibrator and the sensor designer.
+
+    Examples
+    --------
+    >>> from skmba import ModularBayesCalibrator
+    >>> module_settings(ModularBayesCalibrator(noise=False))["discrepancy"]["noise"]
+    False
+    """
+    return {
+        "emulator": dict(
+            kernel=cal.model_kernel,
+            regression=cal.regression,
+            alpha=cal.emulator_alpha,
+            n_restarts_optimizer=cal.n_restarts_optimizer,
+        ),
+        "integration": dict(
+            rule=cal.integration,
+            n_nodes=cal.n_integration_nodes,
+            variance=cal.module2_variance,
+            n_jobs=cal.n_jobs,
+        ),
+        "discrepancy": dict(
+            kernel=cal.discrepancy_kernel,
+            regression=cal.discrepancy_regression,
+            noise=cal.noise,
+            optimizer=cal.discrepancy_optimizer,
+            n_restarts=cal.n_restarts_optimizer,
+        ),
+    }
+
+
+def run_modules(est, X, Y, sims, prior, ranges, seeds, progress):
+    """Modules 1-3 with the estimator's parameters; the fitted pieces."""
+    say = progress.info
+    q = Y.shape[1]
+    started = time.perf_counter()
+    scaler = Standardizer.from_simulations(sims.X, sims.theta, sims.y)
+    emulator = fit_emulator(
+        scaler,
+        sims.X,
+        sims.theta,
+        sims.y,
+        **module_settings(est)["emulator"],
+        random_state=seeds[0],
+        progress=progress,
+    )
+    say(
+        f"module 1 done in {time.perf_counter() - started:.1f} s: emulator of "
+        f"{len(sims.X)} simulations, {emulator.Z.shape[1]} inputs, {q} "
+        "response(s)"
+    )
+    Xs, Ys = scaler.x(X), scaler.y(Y)
+    disc = _module2(est, emulator, scaler, prior, Xs, Ys, ranges, seeds, progress)
+    return dict(
+        scaler=scaler,
+        emulator=emulator,
+        disc=disc,
+        **_module3(
+            est, emulator, scaler, prior, sims, Xs, Ys, disc, seeds[3], progress
+        ),
+    )
+
+
+def _module2(est, emulator, scaler, prior, Xs, Ys, ranges, seeds, progress):
+    """Module 2: the integrated emulator, then the discrepancy and noise."""
+    say = progress.info
+    started = time.perf_counter()
+    integrated = integrate_over_prior(
+        emulator,
+        scaler,
+        prior,
+        Xs,
+        **module_settings(est)["integration"],
+        random_state=seeds[1],
+    )
+    disc = fit_discrepancy(
+        Xs,
+        Ys - integrated.mean,
+        integrated.cov,
+        **module_settings(est)["discrepancy"],
+        ranges=ranges,
+        random_state=seeds[2],
+        progress=progress,
+    )
+    say(
+        f"module 2 done in {time.perf_counter() - started:.1f} s: noise "
+        f"variances {np.array2string(disc.noise * scaler.y_scale**2, precision=3)}"
+        ", discrepancy variances / simulated variances "
+        f"{np.array2string(np.diag(disc.sigma2), precision=3)} "
+        f"(range {ranges_text(ranges)})"
+    )
+    return disc
+
+
+def _module3(est, emulator, scaler, prior, sims, Xs, Ys, disc, seed, progress):
+    """Module 3: the posterior of theta, and module 4's rule over it."""
+    say = progress.info
+    started = time.perf_counter()
+    (n, d), q = Xs.shape, Ys.shape[1]
+    P = q * (
+        n_regression_terms(est.regression, emulator.Z.shape[1])
+        + n_regression_terms(est.discrepancy_regression, d)
+    )
+    jobs = n_workers(est.n_jobs) if prior.dim > 1 else 1
+    check_global_memory(emulator.N, n, q, P, jobs)
+    log_post = LogPosterior(
+        prior, GlobalModel(emulator, Xs, Ys, disc), scaler, sims.theta
+    )
+    sampler = one_parameter_rule("sampler", est.sampler, prior.dim, several="mcmc")
+    if sampler == "quadrature":
+        posterior = posterior_by_quadrature(
+            log_post,
+            est.n_samples,
+            random_state=seed,
+            say=say,
+        )
+    else:
+        posterior = posterior_by_mcmc(
+            log_post,
+            n_chains=est.n_chains,
+            n_samples=est.n_samples,
+            burn_in=est.burn_in,
+            n_jobs=est.n_jobs,
+            random_state=seed,
+            progress=progress,
+        )
+    rule = prediction_rule(posterior, log_post)
+    say(posterior.summary(time.perf_counter() - started))
+    return dict(
+        log_post=log_post,
+        posterior=posterior,
+        rule=rule,
+    )
+
+
+def checked_prior(prior, given):
+    """The checked prior; uniform over ``theta_sim`` when None."""
+    if prior is not None:
+        return check_prior(prior, None if given is None else given.theta.shape[1])
+    if given is None:
+        raise ValueError(
+            "prior is required when the simulations are run by the "
+            "simulator: pass e.g. prior=[scipy.stats.uniform(lo, hi - lo)]."
+        )
+    t = given.theta
+    return check_prior(
+        [stats.uniform(lo, hi - lo) for lo, hi in zip(t.min(0), t.max(0), strict=True)]
+    )
+
+
+def fitted_attributes(
+    X, y, Y_ndim, prior, sims, scaler, emulator, disc, log_post, posterior, rule
+):
+    """The calibrator's fitted attributes from the pieces of the fit (user units).
+
+    Returns a dict ``{attribute name: value}``; the private entries
+    (leading underscore) are what the predictions and ``log_posterior``
+    need. The optional attributes (:data:`OPTIONAL_FITTED`) are present
+    only for their posterior method.
+    """
+    out = {"_y_ndim": Y_ndim}
+    out["prior_"] = prior
+    out["parameter_names_"] = parameter_names(prior)
+    out["X_obs_"], out["y_obs_"] = X, y
+    out["X_sim_"], out["theta_sim_"], out["y_sim_"] = sims.X, sims.theta, sims.y
+    out["X_mean_"], out["X_scale_"] = scaler.X_mean, scaler.X_scale
+    out["theta_offset_"], out["theta_scale_"] = scaler.theta_offset, scaler.theta_scale
+    out["y_mean_"], out["y_scale_"] = scaler.y_mean, scaler.y_scale
+    out["model_gp_"] = emulator.gp
+    out["discrepancy_kernel_"] = disc.kernel_
+    out["discrepancy_sigma2_"] = scaler.y_covariance_to_user(disc.sigma2)
+    out["discrepancy_beta_"] = disc.beta * scaler.y_scale
+    out["noise_"] = disc.noise * scaler.y_scale**2
+    out["theta_samples_"] = posterior.samples
+    out["theta_mean_"], out["theta_cov_"] = posterior.mean, posterior.cov
+    if posterior.method == "quadrature":
+        out["theta_nodes_"], out["theta_weights_"] = posterior.nodes, posterior.weights
+    else:
+        out["theta_chains_"] = posterior.chains
+        out["theta_log_posterior_"] = posterior.log_density
+        out["acceptance_rate_"] = posterior.acceptance_rate
+        out["rhat_"], out["ess_"] = posterior.rhat, posterior.ess
+    out["global_model_"] = log_post.model
+    out["_scaler"] = scaler
+    out["_log_posterior"] = log_post
+    out["_prediction_rule"] = rule
+    return out
