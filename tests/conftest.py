@@ -12,6 +12,17 @@ from skmba._regression import regression_basis
 from skmba.kernels import Exp, Gauss
 
 
+def fixed_gp(X_m, Y_m):
+    """A GP with a fixed Exp kernel and linear regression on [x, theta]."""
+    return MultiResponseGP(
+        Exp(roughness=[1.5, 0.8]),
+        regression="linear",
+        alpha=1e-6,
+        optimizer=None,
+        normalize_y=False,
+    ).fit(X_m, Y_m)
+
+
 def discrepancy(sigma2_d, noise):
     """The module-2 estimates the global model reads."""
     return SimpleNamespace(
@@ -31,13 +42,7 @@ def problem():
     Y_m = np.column_stack(
         [np.sin(2 * X_m[:, 0]) * X_m[:, 1], X_m[:, 0] + 0.5 * X_m[:, 1] ** 2]
     )
-    gp = MultiResponseGP(
-        Exp(roughness=[1.5, 0.8]),
-        regression="linear",
-        alpha=1e-6,
-        optimizer=None,
-        normalize_y=False,
-    ).fit(X_m, Y_m)
+    gp = fixed_gp(X_m, Y_m)
     X_e = rng.uniform(-1, 1, size=(n, 1))
     Y_e = np.column_stack([np.sin(2 * X_e[:, 0]) * 0.3, X_e[:, 0] + 0.1]) + 0.05
     A = rng.normal(size=(2, 2))

@@ -2,15 +2,14 @@
 
 import numpy as np
 import pytest
-from conftest import discrepancy
+from conftest import discrepancy, fixed_gp
 from sklearn.base import clone
 
-from skmba import MultiResponseGP
 from skmba._emulator import Emulator
 from skmba._posterior import GlobalModel
 from skmba._regression import regression_basis
 from skmba._subset_likelihood import FieldDesignEmulator, SubsetLikelihood
-from skmba.kernels import Exp, Gauss
+from skmba.kernels import Gauss
 
 
 def _three_response_problem():
@@ -24,13 +23,7 @@ def _three_response_problem():
             np.cos(X_m[:, 0] + X_m[:, 1]),
         ]
     )
-    gp = MultiResponseGP(
-        Exp(roughness=[1.5, 0.8]),
-        regression="linear",
-        alpha=1e-6,
-        optimizer=None,
-        normalize_y=False,
-    ).fit(X_m, Y_m)
+    gp = fixed_gp(X_m, Y_m)
     X_e = rng.uniform(-1, 1, size=(n, 1))
     Y_e = rng.normal(size=(n, q))
     A = rng.normal(size=(q, q))
