@@ -58,6 +58,14 @@ _PIVOT_MARGIN = 100.0
 _FLAT_GRADIENT = 1e-4
 
 
+#: Random restarts of the kernel hyperparameters are drawn log-uniformly
+#: within this many log units of the starting values (a factor 100 either
+#: way), and within the bounds: across the whole of wide bounds (eight
+#: decades for the default kernel) most starts land where the correlation
+#: is the identity or singular, and the search stays there.
+RESTART_SPAN = np.log(100.0)
+
+
 def correlation(kernel, X, nugget, eval_gradient, differences=None):
     """Correlation of the training inputs ``X`` (+ ``nugget``) and its gradient.
 
@@ -277,7 +285,8 @@ class _Concentrated:
                 start = x0.copy()
                 if free_kernel:
                     start[:n_kernel] = rng.uniform(
-                        bounds[:n_kernel, 0], bounds[:n_kernel, 1]
+                        np.maximum(bounds[:n_kernel, 0], x0[:n_kernel] - RESTART_SPAN),
+                        np.minimum(bounds[:n_kernel, 1], x0[:n_kernel] + RESTART_SPAN),
                     )
                 if self.with_nugget:
                     start[n_kernel] = rng.uniform(np.log(1e-4), 0.0)
