@@ -23,20 +23,20 @@ from sklearn.gaussian_process.kernels import Kernel
 from sklearn.utils.validation import check_is_fitted, validate_data
 from threadpoolctl import threadpool_limits
 
-from skmba._discrepancy import (
-    DISCREPANCY_OPTIMIZERS,
-    check_discrepancy_ranges,
-)
+from skmba._discrepancy import DISCREPANCY_OPTIMIZERS
 from skmba._field_data import check_field_data, warn_few_distinct_inputs
+from skmba._identifiability import warn_if_confounded
 from skmba._integration import (
     INTEGRATIONS,
     MODULE2_VARIANCES,
     one_parameter_rule,
 )
 from skmba._mba import (
+    DISCREPANCY_UNCERTAINTIES,
     OPTIONAL_FITTED,
     checked_prior,
     fitted_attributes,
+    module2_prior,
     run_modules,
     simulations_for,
 )
@@ -141,21 +141,36 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
     discrepancy_optimizer : {"fmin_l_bfgs_b", "differential_evolution"}
         Module-2 optimiser; differential evolution is a global search (the
         analogue of the thesis' genetic algorithm) followed by L-BFGS-B.
+    discrepancy_uncertainty : {"propagate", "plug-in"}, default="propagate"
+        Module-2 treatment. "propagate": the discrepancy and noise
+        hyperparameters get the prior of ``discrepancy_prior``, module 2
+        finds their restricted-likelihood posterior (mode and Laplace
+        approximation) and module 3 integrates them out over 16 of its
+        draws, so that theta's interval carries their uncertainty. "plug-in":
+        the thesis' MBA, their estimate within the ranges of
+        ``discrepancy_prior`` plugged into modules 3 and 4. The User Guide
+        ("How honest are the intervals?") compares the two.
     discrepancy_prior : dict, default=None
-        Ranges of the discrepancy hyperparameters, a uniform prior whose
-        maximum a posteriori module 2 finds (the likelihood maximised inside
-        them), in the standardised units of the simulations (inputs and
-        responses centred and scaled by their spread over the simulations)::
+        In the standardised units of the simulations (inputs and responses
+        centred and scaled by their spread over the simulations). With
+        ``discrepancy_uncertainty="propagate"``, the prior (None: these
+        defaults; a missing key keeps its default)::
+
+            {"sd_scale": 0.5,           # half-normal scale of each sd
+             "correlation_eta": 2.0,    # LKJ prior of the correlation
+             "roughness": (0.1, 9.0),   # log-uniform, thesis Table 6.2
+             "noise": (1e-6, 1.0)}      # log-uniform noise variance
+
+        With "plug-in", ranges of the hyperparameters (a uniform prior whose
+        maximum a posteriori module 2 finds)::
 
             {"roughness": (0.1, 9.0),   # per design variable
              "variance": (1e-2, 20.0)}  # diagonal of Sigma_d, per response
 
-        None means these values, thesis Table 6.2. Each range is ``(low,
-        high)`` of scalars or of arrays (one value per design variable or
-        response); a missing key takes Table 6.2's range and ``None``
-        removes it (``"variance": None``: the plain maximum likelihood).
-        The lower end of ``"variance"`` is held as each response's own part
-        of the discrepancy. The User Guide says why the default has one.
+        (thesis Table 6.2); each range is ``(low, high)`` of scalars or of
+        arrays, and ``None`` removes it (``"variance": None``: the plain
+        maximum likelihood). The lower end of ``"variance"`` is held as each
+        response's own part of the discrepancy.
     emulator_alpha : float, default=1e-8
         Nugget of the emulator's correlation matrix, at the simulations and
         at the field inputs of the module-3 likelihood alike (the model term
@@ -201,6 +216,15 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         and ``ess_`` are the rank-normalised split R-hat and the bulk
         effective sample size, equal to ArviZ's ``rhat`` and ``ess(method=
         "bulk")`` (see the User Guide).
+    identifiability_ : ndarray of shape (r,)
+        Per parameter, the ratio of its linearised posterior sd without a
+        discrepancy to that with a discrepancy of plausible size (each
+        response's at the 95 % point of the default prior of its sd), near
+        the posterior mean: near 1, the data identify it whatever the
+        discrepancy; below 1/3 ``fit`` warns
+        (:class:`~skmba.exceptions.NonIdentifiabilityWarning`): a
+        discrepancy can mimic its effect and its interval reflects the
+        discrepancy prior more than the data.
     parameter_names_ : list of str
         The names of the calibration parameters: the keys of a dict prior,
         else ``theta0, theta1, ...``.
@@ -272,7 +296,8 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         "module2_variance": [Options(MODULE2_VARIANCES)],
         "n_restarts_optimizer": [Count(minimum=0)],
         "discrepancy_optimizer": [Options(DISCREPANCY_OPTIMIZERS)],
-        "discrepancy_prior": "no_validation",  # check_discrepancy_ranges, in fit
+        "discrepancy_uncertainty": [Options(DISCREPANCY_UNCERTAINTIES)],
+        "discrepancy_prior": "no_validation",  # module2_prior, in fit
         "emulator_alpha": [Real(minimum=0, hint="the emulator's nugget, e.g. 1e-8")],
         "verbose": [Count(minimum=0)],
     }
@@ -299,6 +324,7 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         module2_variance="total",
         n_restarts_optimizer=2,
         discrepancy_optimizer="fmin_l_bfgs_b",
+        discrepancy_uncertainty="propagate",
         discrepancy_prior=None,
         emulator_alpha=1e-8,
         verbose=0,
@@ -322,6 +348,7 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         self.module2_variance = module2_variance
         self.n_restarts_optimizer = n_restarts_optimizer
         self.discrepancy_optimizer = discrepancy_optimizer
+        self.discrepancy_uncertainty = discrepancy_uncertainty
         self.discrepancy_prior = discrepancy_prior
         self.emulator_alpha = emulator_alpha
         self.verbose = verbose
@@ -355,6 +382,9 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
 
         Warns
         -----
+        NonIdentifiabilityWarning
+            A parameter the data cannot tell from the discrepancy (see
+            ``identifiability_``).
         UserWarning
             Observation inputs outside the range of the simulations; more
             than 2 % of the prior mass outside the simulated range of theta;
@@ -382,6 +412,7 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
                 )
             raise
         self._set_fitted(fitted)
+        warn_if_confounded(self.identifiability_, self.parameter_names_)
         return self
 
     def _fit(self, X, y, X_sim, theta_sim, y_sim, partial):
@@ -394,10 +425,10 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         Y = np.asarray(y, dtype=float).reshape(len(X), -1)
         d, q = X.shape[1], Y.shape[1]
         # Before any simulation runs: a bad range must not waste them.
-        ranges = check_discrepancy_ranges(self.discrepancy_prior, d, q)
+        ranges = module2_prior(self, d, q)
         # One child of the seed per random step: the simulation design, then
         # modules 1, 2a, 2b and 3.
-        seeds = [int_seed(c) for c in seed_sequence(self.random_state).spawn(5)]
+        seeds = [int_seed(c) for c in seed_sequence(self.random_state).spawn(7)]
         given = given_simulations(X, q, X_sim, theta_sim, y_sim)
         prior = checked_prior(self.prior, given)
         for name, other in (("integration", "qmc"), ("sampler", "mcmc")):
@@ -462,7 +493,7 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         scaler, rule = self._scaler, self._prediction_rule
         mean, var = predict_component(
             self.global_model_,
-            PredictionRule(scaler.theta(rule.thetas), rule.weights),
+            PredictionRule(scaler.theta(rule.thetas), rule.weights, rule.draws),
             scaler.x(X),
             component,
             return_std=return_std,

@@ -225,16 +225,30 @@ class DiscrepancyFit:
     """
 
     def __init__(
-        self, kernel, X, Y, H, V_fixed, variance_bounds=None, *, regression=None
+        self,
+        kernel,
+        X,
+        Y,
+        H,
+        V_fixed,
+        variance_bounds=None,
+        *,
+        regression=None,
+        restricted=False,
+        unit_scale=False,
     ):
         self.kernel, self.X, self.Y, self.H, self.V_fixed = kernel, X, Y, H, V_fixed
         self.regression = regression
+        self.restricted = restricted
         self.n, self.q = Y.shape
         self.scale = np.maximum(Y.std(axis=0), 1e-8 * max(np.abs(Y).max(), 1e-300))
+        if unit_scale:  # parameters in the units of Y (a prior is set in them)
+            self.scale = np.ones(self.q)
         self.rows, self.cols = np.tril_indices(self.q, -1)
         self.n_kernel = kernel.n_dims
         self.fixed_noise = None
         self.log_sd_bounds = np.tile(_LOG_REL_SD, (self.q, 1))
+        self.log_noise_bounds = _LOG_REL_NOISE
         self.floor = np.zeros(self.q)
         if variance_bounds is not None:
             lo, hi = (np.broadcast_to(v, (self.q,)) for v in variance_bounds)
@@ -278,7 +292,7 @@ class DiscrepancyFit:
 
     def bounds(self):
         parts = [self.kernel.bounds if self.n_kernel else np.zeros((0, 2))]
-        noise = _LOG_REL_NOISE
+        noise = self.log_noise_bounds
         if self.fixed_noise is not None:
             noise = (np.log(self.fixed_noise),) * 2
         parts += [
@@ -290,7 +304,12 @@ class DiscrepancyFit:
 
     # ------------------------------------------------------- likelihood
     def evaluate(self, params, eval_gradient=True):
-        """Log-likelihood (and gradient in ``params``) with GLS ``beta``."""
+        """Log-likelihood (and gradient in ``params``) with GLS ``beta``.
+
+        With ``restricted=True`` the restricted likelihood (REML: ``beta``
+        integrated out under a flat prior, which adds ``-log|X' V^-1 X| / 2``
+        and removes the low bias of the maximum-likelihood variances).
+        """
         n, q = self.n, self.q
         theta, lam, L = self.unpack(params)
         k = self.kernel.clone_with_theta(theta) if self.n_kernel else self.kernel
@@ -313,11 +332,16 @@ class DiscrepancyFit:
         beta = linalg.solve_triangular(G, Q.T @ yw)
         rw = yw - Xw @ beta
         ll = -0.5 * (n * q * LOG_2PI + log_det_from_cholesky(C) + rw @ rw)
+        if self.restricted:
+            ll -= 0.5 * (2.0 * np.sum(np.log(np.abs(np.diag(G)))) - len(G) * LOG_2PI)
         self.last = (k, sigma2, lam, beta.reshape(q, -1).T)
         if not eval_gradient:
             return ll
         alpha = linalg.solve_triangular(C, rw, lower=True, trans="T")
         Vinv = linalg.cho_solve((C, True), np.eye(n * q))
+        if self.restricted:  # V^-1 -> V^-1 - V^-1 X (X' V^-1 X)^-1 X' V^-1
+            W = linalg.solve_triangular(C, Q, lower=True, trans="T")
+            Vinv -= W @ W.T
         K = (np.outer(alpha, alpha) - Vinv).reshape(q, n, q, n)
         M = np.einsum("ab,aibj->ij", sigma2, K)
         g_kernel = 0.5 * (dR.reshape(n * n, -1).T @ M.ravel())
@@ -438,6 +462,23 @@ class DiscrepancyFit:
         return self
 
 
+def check_module2_memory(kernel, residual):
+    """Room for the module-2 likelihood of ``residual`` (n, q), before it runs.
+
+    Each likelihood evaluation holds about eight nq x nq matrices (the
+    covariance, its Cholesky factor and inverse, the gradient weights and
+    their reshapes).
+    """
+    nq, q = residual.size, residual.shape[1]
+    n_params = kernel.n_dims + q + q * (q + 1) // 2
+    check_memory(
+        FLOAT_BYTES * 8 * nq**2,
+        f"The module-2 likelihood (a {nq} x {nq} field-data covariance, "
+        f"{n_params} parameters)",
+        FEWER_FIELD_DATA,
+    )
+
+
 def discrepancy_kernel(kernel, X):
     """The discrepancy correlation: a clone of ``kernel``, or the default.
 
@@ -515,17 +556,7 @@ def fit_discrepancy(
     variance = None if ranges is None else ranges["variance"]
     if variance is not None and responses is not None:
         variance = tuple(v[list(responses)] for v in variance)
-    nq, q = residual.size, residual.shape[1]
-    n_params = kernel_d.n_dims + q + q * (q + 1) // 2
-    # Each likelihood evaluation holds about eight nq x nq matrices (the
-    # covariance, its Cholesky factor and inverse, the gradient weights
-    # and their reshapes).
-    check_memory(
-        FLOAT_BYTES * 8 * nq**2,
-        f"The module-2 likelihood (a {nq} x {nq} field-data covariance, "
-        f"{n_params} parameters)",
-        FEWER_FIELD_DATA,
-    )
+    check_module2_memory(kernel_d, residual)
     H_d = regression_basis(X_e, regression)
     disc = DiscrepancyFit(
         kernel_d, X_e, residual, H_d, V_fixed, variance, regression=regression

@@ -21,10 +21,20 @@ import time
 import numpy as np
 from scipy import stats
 
-from skmba._discrepancy import fit_discrepancy, ranges_text
+from skmba._discrepancy import check_discrepancy_ranges, fit_discrepancy, ranges_text
 from skmba._emulator import Standardizer, fit_emulator
-from skmba._integration import integrate_over_prior, one_parameter_rule
+from skmba._hyperposterior import fit_hyperposterior
+from skmba._hyperprior import Hyperprior
+from skmba._identifiability import identifiability
+from skmba._integration import (
+    IntegratedEmulator,
+    integrate_emulator,
+    integrate_over_prior,
+    one_parameter_rule,
+    repair_psd,
+)
 from skmba._linalg import FEWER_FIELD_DATA, FLOAT_BYTES, check_memory, n_workers
+from skmba._mixture import ModelMixture
 from skmba._posterior import (
     GlobalModel,
     LogPosterior,
@@ -36,6 +46,10 @@ from skmba._priors import check_prior
 from skmba._regression import n_regression_terms
 from skmba._simulations import check_design_size, collect_simulations
 from skmba._summary import parameter_names
+
+#: Module-2 treatments: the hyperparameters integrated out of module 3
+#: (default), or the thesis' plug-in of their estimate.
+DISCREPANCY_UNCERTAINTIES = ("propagate", "plug-in")
 
 #: Fitted attributes that only one posterior method sets.
 OPTIONAL_FITTED = (
@@ -49,16 +63,18 @@ OPTIONAL_FITTED = (
 )
 
 
-def check_global_memory(N, n, q, P, jobs):
+def check_global_memory(N, n, q, P, jobs, draws=1):
     """Room for the module-3 global model, before it is built.
 
     About six nq x nq matrices (the fixed part and, per factorisation,
     the Schur complement, its Kronecker term and Cholesky factor), plus
     the (N, n) cross-correlations and the (N q, P) whitened regression;
-    each parallel chain holds its own factorisation.
+    each parallel chain holds its own factorisation. With ``draws`` > 1
+    module-2 draws, each has its fixed part, and each factorisation
+    stacks all draws.
     """
     needed = FLOAT_BYTES * (
-        (3 + 3 * jobs) * (n * q) ** 2 + 2 * jobs * N * n + 2 * N * q * P
+        (3 * draws + 3 * draws * jobs) * (n * q) ** 2 + 2 * jobs * N * n + 2 * N * q * P
     )
     check_memory(
         needed,
@@ -66,6 +82,13 @@ def check_global_memory(N, n, q, P, jobs):
         f"observations x {q} responses)",
         FEWER_FIELD_DATA,
     )
+
+
+def module2_prior(est, d, q):
+    """The module-2 prior of the estimator: a Hyperprior, or plug-in ranges."""
+    if est.discrepancy_uncertainty == "propagate":
+        return Hyperprior.from_spec(est.discrepancy_prior)
+    return check_discrepancy_ranges(est.discrepancy_prior, d, q)
 
 
 def simulations_for(est, X, q, prior, given, seed, progress):
@@ -139,20 +162,56 @@ def run_modules(est, X, Y, sims, prior, ranges, seeds, progress):
         "response(s)"
     )
     Xs, Ys = scaler.x(X), scaler.y(Y)
-    disc = _module2(est, emulator, scaler, prior, Xs, Ys, ranges, seeds, progress)
-    return dict(
-        scaler=scaler,
-        emulator=emulator,
-        disc=disc,
-        **_module3(
-            est, emulator, scaler, prior, sims, Xs, Ys, disc, seeds[3], progress
-        ),
+    disc, draws = _module2(
+        est, emulator, scaler, prior, Xs, Ys, ranges, seeds, progress
     )
+    propagate = draws is not None
+    module3 = _module3(
+        est,
+        emulator,
+        scaler,
+        prior,
+        sims,
+        Xs,
+        Ys,
+        (disc, draws),
+        seeds[3],
+        progress,
+        first_pass=propagate,
+    )
+    if propagate:
+        # Second pass: module 2 with theta integrated over the first pass's
+        # posterior instead of the prior, a closer proposal for its draws.
+        rule = module3["rule"]
+        integrated = _integrated(
+            emulator, Xs, scaler.theta(rule.thetas), rule.weights, est.n_jobs
+        )
+        disc, draws = _hyperposterior(
+            est, Xs, Ys, integrated, ranges, seeds[4], progress, scaler, "2nd pass"
+        )
+        module3 = _module3(
+            est,
+            emulator,
+            scaler,
+            prior,
+            sims,
+            Xs,
+            Ys,
+            (disc, draws),
+            seeds[5],
+            progress,
+        )
+    hyperprior = ranges if isinstance(ranges, Hyperprior) else Hyperprior()
+    base = module3["log_post"].model
+    base = getattr(base, "base", base)
+    module3["identifiability"] = identifiability(
+        base, scaler.theta(module3["posterior"].mean), hyperprior
+    )
+    return dict(scaler=scaler, emulator=emulator, disc=disc, **module3)
 
 
 def _module2(est, emulator, scaler, prior, Xs, Ys, ranges, seeds, progress):
     """Module 2: the integrated emulator, then the discrepancy and noise."""
-    say = progress.info
     started = time.perf_counter()
     integrated = integrate_over_prior(
         emulator,
@@ -162,6 +221,10 @@ def _module2(est, emulator, scaler, prior, Xs, Ys, ranges, seeds, progress):
         **module_settings(est)["integration"],
         random_state=seeds[1],
     )
+    if isinstance(ranges, Hyperprior):
+        return _hyperposterior(
+            est, Xs, Ys, integrated, ranges, seeds[2], progress, scaler, "1st pass"
+        )
     disc = fit_discrepancy(
         Xs,
         Ys - integrated.mean,
@@ -171,17 +234,71 @@ def _module2(est, emulator, scaler, prior, Xs, Ys, ranges, seeds, progress):
         random_state=seeds[2],
         progress=progress,
     )
-    say(
+    _say_module2(
+        progress, started, disc, scaler, f"plug-in, range {ranges_text(ranges)}"
+    )
+    return disc, None
+
+
+def _say_module2(progress, started, disc, scaler, how):
+    progress.info(
         f"module 2 done in {time.perf_counter() - started:.1f} s: noise "
         f"variances {np.array2string(disc.noise * scaler.y_scale**2, precision=3)}"
         ", discrepancy variances / simulated variances "
-        f"{np.array2string(np.diag(disc.sigma2), precision=3)} "
-        f"(range {ranges_text(ranges)})"
+        f"{np.array2string(np.diag(disc.sigma2), precision=3)} ({how})"
     )
-    return disc
 
 
-def _module3(est, emulator, scaler, prior, sims, Xs, Ys, disc, seed, progress):
+def _integrated(emulator, Xs, nodes, weights, n_jobs):
+    """The emulator integrated over a rule of standardised thetas (total).
+
+    The rule of a posterior (41 quadrature nodes or 200 draws) has no more
+    nodes than the prior's of the first pass, whose memory was checked.
+    """
+    mean, corr, spread = integrate_emulator(emulator, Xs, nodes, weights, n_jobs=n_jobs)
+    return IntegratedEmulator(mean, repair_psd(np.kron(emulator.sigma2, corr) + spread))
+
+
+def _hyperposterior(est, Xs, Ys, integrated, prior, seed, progress, scaler, label):
+    """Module 2b with its uncertainty (:func:`fit_hyperposterior`)."""
+    started = time.perf_counter()
+    settings = module_settings(est)["discrepancy"]
+    draws = fit_hyperposterior(
+        Xs,
+        Ys - integrated.mean,
+        integrated.cov,
+        prior=prior,
+        kernel=settings["kernel"],
+        regression=settings["regression"],
+        noise=settings["noise"],
+        n_restarts=settings["n_restarts"],
+        random_state=seed,
+        progress=progress,
+    )
+    how = f"{label}: posterior mode; {len(draws.components)} draws"
+    _say_module2(progress, started, draws.mode, scaler, how)
+    return draws.mode, draws
+
+
+#: The first of the two passes of the propagated module 2 needs only where
+#: the posterior is: MCMC draws (per chain) and burn-in of that pass.
+FIRST_PASS_MCMC = {"n_samples": 250, "burn_in": 500}
+
+
+def _module3(
+    est,
+    emulator,
+    scaler,
+    prior,
+    sims,
+    Xs,
+    Ys,
+    disc,
+    seed,
+    progress,
+    *,
+    first_pass=False,
+):
     """Module 3: the posterior of theta, and module 4's rule over it."""
     say = progress.info
     started = time.perf_counter()
@@ -191,10 +308,13 @@ def _module3(est, emulator, scaler, prior, sims, Xs, Ys, disc, seed, progress):
         + n_regression_terms(est.discrepancy_regression, d)
     )
     jobs = n_workers(est.n_jobs) if prior.dim > 1 else 1
-    check_global_memory(emulator.N, n, q, P, jobs)
-    log_post = LogPosterior(
-        prior, GlobalModel(emulator, Xs, Ys, disc), scaler, sims.theta
-    )
+    disc, draws = disc
+    n_draws = 1 if draws is None else len(draws.components)
+    check_global_memory(emulator.N, n, q, P, jobs, n_draws)
+    model = GlobalModel(emulator, Xs, Ys, disc)
+    if draws is not None:
+        model = ModelMixture(model, draws)
+    log_post = LogPosterior(prior, model, scaler, sims.theta)
     sampler = one_parameter_rule("sampler", est.sampler, prior.dim, several="mcmc")
     if sampler == "quadrature":
         posterior = posterior_by_quadrature(
@@ -204,16 +324,19 @@ def _module3(est, emulator, scaler, prior, sims, Xs, Ys, disc, seed, progress):
             say=say,
         )
     else:
+        length = {"n_samples": est.n_samples, "burn_in": est.burn_in}
+        if first_pass:
+            length = {k: min(v, length[k]) for k, v in FIRST_PASS_MCMC.items()}
         posterior = posterior_by_mcmc(
             log_post,
             n_chains=est.n_chains,
-            n_samples=est.n_samples,
-            burn_in=est.burn_in,
+            **length,
             n_jobs=est.n_jobs,
             random_state=seed,
             progress=progress,
+            check=not first_pass,
         )
-    rule = prediction_rule(posterior, log_post)
+    rule = prediction_rule(posterior, log_post, random_state=seed)
     say(posterior.summary(time.perf_counter() - started))
     return dict(
         log_post=log_post,
@@ -238,7 +361,18 @@ def checked_prior(prior, given):
 
 
 def fitted_attributes(
-    X, y, Y_ndim, prior, sims, scaler, emulator, disc, log_post, posterior, rule
+    X,
+    y,
+    Y_ndim,
+    prior,
+    sims,
+    scaler,
+    emulator,
+    disc,
+    log_post,
+    posterior,
+    rule,
+    identifiability,
 ):
     """The calibrator's fitted attributes from the pieces of the fit (user units).
 
@@ -269,6 +403,7 @@ def fitted_attributes(
         out["theta_log_posterior_"] = posterior.log_density
         out["acceptance_rate_"] = posterior.acceptance_rate
         out["rhat_"], out["ess_"] = posterior.rhat, posterior.ess
+    out["identifiability_"] = identifiability
     out["global_model_"] = log_post.model
     out["_scaler"] = scaler
     out["_log_posterior"] = log_post

@@ -45,7 +45,7 @@ Examples
 import copy
 import time
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy import linalg, optimize
@@ -130,13 +130,10 @@ class GlobalModel:
         self.X_m, self.Y_m, self.X_e, self.Y_e = emulator.Z, emulator.Y, X_e, Y_e
         self.nugget = float(emulator.nugget)
         self.kernel_m, self.regression_m = emulator.kernel, emulator.regression
-        self.kernel_d = discrepancy.kernel_
         self.regression_d = discrepancy.regression
         self.C_m = emulator.C
         self.sigma2_m = emulator.sigma2
         self.L_sm = emulator.likelihood.sigma2_chol
-        self.sigma2_d = discrepancy.sigma2
-        self.noise = np.asarray(discrepancy.noise, dtype=float)
         N, q = self.Y_m.shape
         n = len(X_e)
         self.N, self.n, self.q = N, n, q
@@ -159,25 +156,54 @@ class GlobalModel:
         self.log_det_A = N * log_det_from_cholesky(self.L_sm) + q * (
             log_det_from_cholesky(self.C_m)
         )
-        R_d = self.kernel_d(X_e)
-        self.S_fixed = np.kron(self.sigma2_d, R_d) + np.kron(
-            np.diag(self.noise), np.eye(n)
+        self._set_discrepancy(discrepancy)
+
+    def _set_discrepancy(self, discrepancy):
+        self.kernel_d = discrepancy.kernel_
+        self.sigma2_d = discrepancy.sigma2
+        self.noise = np.asarray(discrepancy.noise, dtype=float)
+        self.S_fixed = np.kron(self.sigma2_d, self.kernel_d(self.X_e)) + np.kron(
+            np.diag(self.noise), np.eye(self.n)
         )
         self._cache = None
+
+    def with_discrepancy(self, discrepancy):
+        """A copy with other module-2 hyperparameters (same regression).
+
+        The simulation block, factored once, is shared.
+        """
+        other = copy.copy(self)
+        other._set_discrepancy(discrepancy)
+        return other
 
     def solve_sigma_m(self, Z):
         """``Z L_sm^-T`` for Z of shape (., q): whitening across responses."""
         return linalg.solve_triangular(self.L_sm, Z.T, lower=True).T
 
-    def whiten(self, theta):
-        """Factor the global model at ``theta`` (cached for the last theta)."""
+    def conditional(self, theta):
+        """The emulator given the simulations at the field inputs and ``theta``.
+
+        Returns the :class:`~skmba._emulator.EmulatorConditional` and the
+        model term ``Sigma_m ⊗ T`` of the Schur complement, which do not
+        depend on the module-2 hyperparameters.
+        """
+        cond = self.emulator.conditional(self.X_e, np.ravel(theta)[None, :])
+        return cond, np.kron(self.sigma2_m, cond.correlation(self.nugget)[0])
+
+    def whiten(self, theta, conditional=None):
+        """Factor the global model at ``theta`` (cached for the last theta).
+
+        ``conditional``, the output of :meth:`conditional` at this
+        ``theta``, saves recomputing it (models that differ only in the
+        module-2 hyperparameters share it).
+        """
         theta = np.asarray(theta, dtype=float).ravel()
         cache = self._cache  # one read: another thread may replace it
         if cache is not None and np.array_equal(cache.theta, theta):
             return cache
         N, n, q = self.N, self.n, self.q
-        cond = self.emulator.conditional(self.X_e, theta[None, :])
-        S = self.S_fixed + np.kron(self.sigma2_m, cond.correlation(self.nugget)[0])
+        cond, model_term = conditional or self.conditional(theta)
+        S = self.S_fixed + model_term
         L_S = cholesky(S, what="Schur complement S(theta)", remedy=_S_REMEDY)
         # Field rows of H_Y minus B'A^-1 times the simulation rows, whitened.
         X_bot = np.hstack(
@@ -273,13 +299,17 @@ class LogPosterior:
         other.model = copy.copy(self.model)
         return other
 
-    def __call__(self, theta):
-        """Log posterior at one ``theta`` of shape (r,)."""
+    def __call__(self, theta, model=None):
+        """Log posterior at one ``theta`` of shape (r,).
+
+        ``model`` replaces the global model (one draw of a mixture).
+        """
         log_prior = float(np.ravel(self.prior.logpdf(theta[None, :]))[0])
         if not np.isfinite(log_prior):
             return -np.inf
+        model = self.model if model is None else model
         try:
-            return log_prior + self.model.log_likelihood(self.scaler.theta(theta))
+            return log_prior + model.log_likelihood(self.scaler.theta(theta))
         except FactorizationError:
             return -np.inf
 
@@ -296,12 +326,12 @@ class LogPosterior:
         theta[..., self.log_dims] = np.exp(theta[..., self.log_dims])
         return theta
 
-    def log_density_u(self, u):
+    def log_density_u(self, u, model=None):
         """Log posterior density of the sampling coordinates (with Jacobian)."""
         theta = self.from_u(u)
         if not np.all(np.isfinite(theta)):
             return -np.inf
-        return self(theta) + np.sum(np.log(theta[self.log_dims]))
+        return self(theta, model) + np.sum(np.log(theta[self.log_dims]))
 
     def raise_unevaluable(self, thetas):
         """The posterior is -inf at every node: say why, with the cause."""
@@ -585,6 +615,7 @@ def posterior_by_mcmc(
     n_jobs=None,
     random_state=None,
     progress=None,
+    check=True,
 ):
     """Metropolis-Hastings chains on the sampling coordinates.
 
@@ -599,6 +630,8 @@ def posterior_by_mcmc(
     progress : skmba._progress.Progress, default=None
         Step lines (the start of the chains, each chain's acceptance) and
         the sampler's bar and detail lines; None is silent.
+    check : bool, default=True
+        Warn about poor diagnostics (R-hat, ESS); off for a pilot run.
 
     Returns
     -------
@@ -611,13 +644,14 @@ def posterior_by_mcmc(
     started = time.perf_counter()
     starts, cov = _chain_starts(log_posterior, n_chains, rng)
     r = starts.shape[1]
+    targets = [_ChainTarget(log_posterior) for _ in range(n_chains)]
     say(
         f"module 3: posterior mode found in {time.perf_counter() - started:.1f} "
         f"s; running {n_chains} chain(s) of {burn_in} burn-in + "
         f"{n_samples} steps"
     )
     result = run_chains(
-        [_ChainTarget(log_posterior) for _ in range(n_chains)],
+        targets,
         starts,
         n_samples=n_samples,
         burn_in=burn_in,
@@ -628,6 +662,9 @@ def posterior_by_mcmc(
         progress=progress,
     )
     chains = log_posterior.from_u(result.samples)
+    # Diagnostics of theta itself: the folded part of the rank R-hat is not
+    # invariant to the log coordinates (and ArviZ sees theta).
+    on_theta = replace(result, samples=chains)
     # The chains' log density is of the sampling coordinates u: take off the
     # Jacobian of the log coordinates to get the log posterior of theta.
     log_density = result.log_density - np.sum(
@@ -638,13 +675,14 @@ def posterior_by_mcmc(
             f"module 3: chain {c} done: acceptance {result.acceptance_rate[c]:.2f}"
             f", mean {np.array2string(chain.mean(axis=0), precision=5)}"
         )
-    check_diagnostics(result)
+    if check:
+        check_diagnostics(on_theta)
     return PosteriorResult.from_draws(
         "mcmc",
         chains.reshape(-1, r),
         chains=chains,
         acceptance_rate=result.acceptance_rate,
-        rhat=result.rhat,
-        ess=result.ess,
+        rhat=on_theta.rhat,
+        ess=on_theta.ess,
         log_density=log_density,
     )

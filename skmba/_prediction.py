@@ -30,6 +30,7 @@ from threadpoolctl import threadpool_limits
 
 from skmba._linalg import FLOAT_BYTES, check_memory, n_workers
 from skmba._regression import regression_basis
+from skmba._validation import seed_sequence
 
 COMPONENTS = ("model", "discrepancy", "reality", "observation")
 _N_PREDICT_DRAWS = 200  # posterior draws used by the predictions (MCMC)
@@ -50,6 +51,7 @@ class PredictionRule:
 
     thetas: np.ndarray
     weights: np.ndarray
+    draws: np.ndarray | None = None  # module-2 draw per theta (a ModelMixture)
 
     @classmethod
     def equal_weights(cls, samples, n_draws=_N_PREDICT_DRAWS):
@@ -73,11 +75,36 @@ class PredictionRule:
         return cls(nodes[:, None], v / v.sum())
 
 
-def prediction_rule(posterior, log_posterior):
-    """The module-4 rule of a :class:`~skmba._posterior.PosteriorResult`."""
+def prediction_rule(posterior, log_posterior, random_state=None):
+    """The module-4 rule of a :class:`~skmba._posterior.PosteriorResult`.
+
+    Over a :class:`~skmba._mixture.ModelMixture`, each ``theta`` of the rule
+    comes with the module-2 draws ``phi_k``: every draw with its weight
+    ``p(phi_k | theta, data)`` for a quadrature rule (draws below 1e-4 of
+    their node's weight left out), one draw per ``theta`` picked with that
+    probability (systematic sampling, seeded by ``random_state``) for MCMC.
+    """
     if posterior.method == "quadrature":
-        return PredictionRule.quadrature(log_posterior, posterior.interval)
-    return PredictionRule.equal_weights(posterior.samples)
+        rule = PredictionRule.quadrature(log_posterior, posterior.interval)
+    else:
+        rule = PredictionRule.equal_weights(posterior.samples)
+    mixture = log_posterior.model
+    if not hasattr(mixture, "draw_weights"):
+        return rule
+    scaler = log_posterior.scaler
+    given = np.array([mixture.draw_weights(scaler.theta(t)) for t in rule.thetas])
+    if posterior.method == "quadrature":
+        keep = given >= 1e-4 * given.max(axis=1, keepdims=True)
+        i, k = np.nonzero(keep)
+        weights = rule.weights[i] * given[i, k]
+        return PredictionRule(rule.thetas[i], weights / weights.sum(), k)
+    rng = np.random.default_rng(seed_sequence(random_state))
+    u = (np.arange(len(given)) + rng.uniform()) / len(given)
+    cdf = np.cumsum(given, axis=1)
+    picked = (cdf < rng.permutation(u)[:, None]).sum(axis=1)
+    draws = np.minimum(picked, cdf.shape[1] - 1)
+    draws = np.minimum(picked, cdf.shape[1] - 1)
+    return PredictionRule(rule.thetas, rule.weights, draws)
 
 
 def conditional_moments(model, theta, X, component, return_var=True):
@@ -138,18 +165,24 @@ def conditional_moments(model, theta, X, component, return_var=True):
     return mean, np.clip(var.reshape(q, s).T, 0.0, None)
 
 
-def _predict_chunk(model, thetas, Xs, component, return_std):
+def _predict_chunk(models, thetas, Xs, component, return_std):
     """Conditional moments at several posterior draws (one task).
 
     A shallow copy gives the task its own factorisation cache, so that tasks
     sharing the model under a thread-based backend cannot see each other's;
     BLAS is held to one thread so that the bits do not depend on the worker.
     """
-    model = copy.copy(model)
+    own = {}
     with threadpool_limits(limits=1, user_api="blas"):
         return [
-            conditional_moments(model, theta, Xs, component, return_var=return_std)
-            for theta in thetas
+            conditional_moments(
+                own.setdefault(id(model), copy.copy(model)),
+                theta,
+                Xs,
+                component,
+                return_var=return_std,
+            )
+            for model, theta in zip(models, thetas, strict=True)
         ]
 
 
@@ -174,6 +207,10 @@ def predict_component(model, rule, Xs, component, *, return_std, n_jobs=None):
         Law of total variance over the posterior (Eqs. 4.34, 4.41).
     """
     thetas, w = rule.thetas, rule.weights
+    if rule.draws is None:
+        models = [model] * len(thetas)
+    else:
+        models = [model.models[k] for k in rule.draws]
     s, q, n, N = len(Xs), model.q, model.n, model.N
     # Per posterior draw in flight: the (N q, s q) and (n q, s q)
     # whitened cross-covariances (and copies), the (N, s) kernels and
@@ -191,7 +228,11 @@ def predict_component(model, rule, Xs, component, *, return_std, n_jobs=None):
     with threadpool_limits(limits=1, user_api="blas"):
         chunks = Parallel(n_jobs=n_jobs)(
             delayed(_predict_chunk)(
-                model, thetas[i : i + _PREDICT_CHUNK], Xs, component, return_std
+                models[i : i + _PREDICT_CHUNK],
+                thetas[i : i + _PREDICT_CHUNK],
+                Xs,
+                component,
+                return_std,
             )
             for i in range(0, len(thetas), _PREDICT_CHUNK)
         )

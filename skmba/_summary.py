@@ -47,6 +47,7 @@ CALIBRATION_COLUMNS = (
     "sd_ratio",
     "r_hat",
     "ess_bulk",
+    "identifiability",
 )
 
 
@@ -113,10 +114,8 @@ def _posterior_columns(cal):
         "sd_ratio": ratio,
         "r_hat": np.asarray(getattr(cal, "rhat_", nan), dtype=float),
         "ess_bulk": np.asarray(getattr(cal, "ess_", nan), dtype=float),
+        "identifiability": np.asarray(cal.identifiability_, dtype=float),
     }
-    if hasattr(cal, "identifiability_"):
-        values = np.asarray(cal.identifiability_, dtype=float)
-        columns["identifiability"] = np.broadcast_to(values, (r,)).copy()
     return columns
 
 
@@ -153,8 +152,7 @@ def calibration_text(cal):
             text += (
                 f", R-hat {columns['r_hat'][j]:.3f}, ESS {columns['ess_bulk'][j]:.0f}"
             )
-        if "identifiability" in columns:
-            text += f", identifiability {columns['identifiability'][j]:.3g}"
+        text += f", identifiability {columns['identifiability'][j]:.3g}"
         parts.append(text)
     method = "MCMC" if hasattr(cal, "theta_chains_") else "quadrature"
     return f"ModularBayesCalibrator ({method}): " + "; ".join(parts)

@@ -325,11 +325,20 @@ def test_posterior_from_calibrator(calibrator, data):
     np.testing.assert_allclose(vertical[:2], interval)
     mean = calibrator.theta_samples_.mean()
     assert ax.get_title().startswith(f"E: mean {mean:.5g}")
-    # The draws span more than 5 % of the prior's range: "auto" shows them
-    # against it; "posterior" zooms on the draws and the truth.
-    lo, hi = ax.get_xlim()
-    assert lo < 21e3 and hi > 99e3
+    # "auto" shows the draws against the prior's range when they and the
+    # truth span at least 5 % of it, else zooms on them; "prior" always
+    # shows that range; "posterior" zooms on the draws and the truth.
     draws = calibrator.theta_samples_[:, 0]
+    span = max(draws.max(), data.theta_true[0]) - min(draws.min(), data.theta_true[0])
+    prior_lo, prior_hi = calibrator.prior_.bounds(0.99)[0]
+    lo, hi = ax.get_xlim()
+    if span >= 0.05 * (prior_hi - prior_lo):
+        assert lo < prior_lo and hi > prior_hi
+    else:
+        assert prior_lo < lo and hi < prior_hi
+    fig = plot_posterior(calibrator, true_value=data.theta_true, limits="prior")
+    lo, hi = fig.axes[0].get_xlim()
+    assert lo < prior_lo and hi > prior_hi
     fig = plot_posterior(calibrator, true_value=data.theta_true, limits="posterior")
     lo, hi = fig.axes[0].get_xlim()
     assert lo < draws.min() and hi > max(draws.max(), data.theta_true[0])

@@ -1,0 +1,93 @@
+"""Module 3 over module-2 draws: the mixture equals its components."""
+
+import numpy as np
+import pytest
+from scipy import special
+
+from skmba._hyperposterior import DiscrepancyComponent, HyperposteriorDraws
+from skmba._mixture import ModelMixture
+from skmba._posterior import GlobalModel
+from skmba._prediction import conditional_moments
+from skmba.kernels import Gauss
+
+
+def _draws(K=4, seed=0):
+    rng = np.random.default_rng(seed)
+    comps = []
+    for _ in range(K):
+        A = rng.normal(size=(2, 2))
+        comps.append(
+            DiscrepancyComponent(
+                Gauss(roughness=rng.uniform(0.5, 3.0)),
+                0.05 * (A @ A.T + np.eye(2)),
+                rng.uniform(0.005, 0.05, 2),
+                "constant",
+            )
+        )
+    log_w = rng.normal(size=K)
+    return HyperposteriorDraws(None, comps, log_w - special.logsumexp(log_w), None)
+
+
+@pytest.mark.parametrize("theta", [-0.7, 0.1, 0.9])
+def test_stacked_equals_each_component(problem, dense_global, theta):
+    gm = problem[1]
+    draws = _draws()
+    mix = ModelMixture(gm, draws)
+    t = np.array([theta])
+    each = np.array(
+        [gm.with_discrepancy(c).log_likelihood(t) for c in draws.components]
+    )
+    np.testing.assert_allclose(
+        mix.component_log_likelihoods(t), draws.log_weights + each, rtol=1e-10
+    )
+    assert mix.log_likelihood(t) == pytest.approx(
+        special.logsumexp(draws.log_weights + each), rel=1e-12
+    )
+    # The one-by-one path (used when a stacked factorisation fails) agrees.
+    np.testing.assert_allclose(
+        mix._one_by_one(t, gm.conditional(t)), draws.log_weights + each, rtol=1e-10
+    )
+
+
+def test_one_draw_is_the_plug_in_model(problem, dense_global):
+    gm = problem[1]
+    comp = DiscrepancyComponent(gm.kernel_d, gm.sigma2_d, gm.noise, "constant")
+    mix = ModelMixture(gm, HyperposteriorDraws(None, [comp], np.zeros(1), None))
+    for theta in (-0.5, 0.4):
+        assert mix.log_likelihood(np.array([theta])) == pytest.approx(
+            dense_global(problem, theta), rel=1e-8
+        )
+
+
+def test_draw_weights_and_effective_draws(problem):
+    gm = problem[1]
+    mix = ModelMixture(gm, _draws(K=8, seed=1))
+    t = np.array([0.2])
+    w = mix.draw_weights(t)
+    assert w.sum() == pytest.approx(1.0) and np.all(w >= 0)
+    assert 1.0 <= mix.effective_draws(t) <= 8.0
+    # A component's conditional moments are those of its own global model.
+    X = np.array([[0.3], [-0.2]])
+    m1 = conditional_moments(mix.models[3], t, X, "reality")
+    m2 = conditional_moments(
+        GlobalModel(gm.emulator, gm.X_e, gm.Y_e, _as_fit(mix.models[3])),
+        t,
+        X,
+        "reality",
+    )
+    np.testing.assert_allclose(m1[0], m2[0], rtol=1e-10)
+    np.testing.assert_allclose(m1[1], m2[1], rtol=1e-10)
+
+
+def _as_fit(model):
+    return DiscrepancyComponent(model.kernel_d, model.sigma2_d, model.noise, "constant")
+
+
+def test_copies_have_their_own_caches(problem):
+    import copy
+
+    mix = ModelMixture(problem[1], _draws())
+    other = copy.copy(mix)
+    assert all(a is not b for a, b in zip(mix.models, other.models, strict=True))
+    t = np.array([0.1])
+    assert other.log_likelihood(t) == mix.log_likelihood(t)
