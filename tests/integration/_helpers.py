@@ -5,13 +5,17 @@ spring's effect on the tip displacement and on the energy are both the
 fraction 3EI/(K L) of the model's value for a tip load, so a discrepancy
 proportional to the model response is confounded with E: the fixed-support
 model at E_eff = E*/(1 + 3E*I/(K* L)) = 67.9 GPa reproduces the data
-exactly. The plain maximum-likelihood module 2 then makes the discrepancy
-vanish and pins E at E_eff (-3.1 %) with a posterior sd of tens of MPa, so
-E* lies far outside the 95 % credible interval. The default module 2 keeps
-the discrepancy variances inside the ranges of thesis Table 6.2 (at least
-1 % of each simulated response's variance, held as each response's own),
-which says that the idealised model is not exact: E stays within a few
-percent and E* inside the credible interval.
+exactly. The data identify E_eff (with I: the product E_eff I), not E*.
+
+With the default module 2 (the discrepancy hyperparameters integrated out
+under their documented prior) the posterior sits at E_eff, a few tenths of
+a GPa wide at the thesis' noise, and ``fit`` raises a
+NonIdentifiabilityWarning: E* lies outside the interval, as no method can
+avoid on these data. The thesis' plug-in MBA (``discrepancy_uncertainty=
+"plug-in"``) with the Table 6.2 floor on the discrepancy variance covered
+E* only because the floor made the interval a few GPa wide. The
+replications check the error of E against E* (a few percent, as the
+thesis) and the interval against E_eff, the quantity the data identify.
 """
 
 import warnings
@@ -34,6 +38,13 @@ def fit(data, **params):
             theta_sim=data.theta_sim,
             y_sim=data.y_sim,
         )
+
+
+def effective_modulus(data):
+    """E_eff of the beam with a spring: the fixed-support model's E that
+    reproduces the real beam (tip load)."""
+    beam = data.reality
+    return beam.E / (1 + 3 * beam.E * beam.I / (beam.spring_stiffness * beam.length))
 
 
 def relative_error(cal, data, k=0):
@@ -69,9 +80,11 @@ def fit_E_and_I(seed, prior="uniform"):
 def check_E_and_I_posterior(cal, data):
     """What every 4.7.3/4.7.7 posterior must show."""
     EI_draws = np.prod(cal.theta_samples_, axis=1)
-    for k in range(2):
+    for k in range(2):  # along the ridge E I = c the prior decides
         assert inside(data.theta_true[k], credible_interval(cal, k))
-    assert inside(np.prod(data.theta_true), np.quantile(EI_draws, [0.025, 0.975]))
+    # The data identify E_eff I (the spring's 3 %), not E* I*.
+    EI_eff = effective_modulus(data) * data.theta_true[1]
+    assert inside(EI_eff, np.quantile(EI_draws, [0.025, 0.975]))
     corr = cal.theta_cov_[0, 1] / np.sqrt(np.prod(np.diag(cal.theta_cov_)))
     assert corr < -0.5  # only E I is identified: a negative ridge
     assert np.all(cal.rhat_ < 1.05)

@@ -1,6 +1,8 @@
 """Thesis chapter 4, module 2: the variance it uses and the ranges of Table 6.2.
 
-The physics of the problem: see tests/integration/_helpers.py.
+These replicate the thesis' plug-in module 2 (``discrepancy_uncertainty=
+"plug-in"``): its estimate within the ranges of Table 6.2 plugged into
+module 3. The physics of the problem: see tests/integration/_helpers.py.
 """
 
 import numpy as np
@@ -16,6 +18,8 @@ from ._helpers import (
     inside,
     relative_error,
 )
+
+PLUG_IN = {"discrepancy_uncertainty": "plug-in"}
 
 
 def log_score(cal, data):
@@ -36,8 +40,8 @@ def test_module2_total_variance_is_the_better_default(responses):
     # total variance gives the sharper posterior that still covers E*,
     # i.e. the higher density at E* (log score, measured 0.7-1.2 higher).
     data = make_cantilever(responses=responses, random_state=0)
-    total = fit(data, module2_variance="total")
-    conditional = fit(data, module2_variance="conditional")
+    total = fit(data, **PLUG_IN, module2_variance="total")
+    conditional = fit(data, **PLUG_IN, module2_variance="conditional")
     for cal in (total, conditional):
         assert abs(relative_error(cal, data)) < 0.05
         assert inside(data.theta_true[0], credible_interval(cal))
@@ -50,8 +54,10 @@ def test_plain_maximum_likelihood_pins_E_at_the_confounded_value():
     # finds a discrepancy of about zero and the posterior is narrow around
     # E_eff = E*/(1 + 3 E* I/(K* L)) (module docstring), missing E*.
     data = make_cantilever(random_state=0)
-    plain = fit(data, discrepancy_prior={"roughness": None, "variance": None})
-    default = fit(data)
+    plain = fit(
+        data, **PLUG_IN, discrepancy_prior={"roughness": None, "variance": None}
+    )
+    default = fit(data, **PLUG_IN)
     confounded = 70e3 / (1 + 3 * 70e3 * 6.75e8 / (1.5e12 * 3000.0))
     assert plain.theta_mean_[0] == pytest.approx(confounded, rel=2e-3)
     assert np.sqrt(plain.theta_cov_[0, 0]) < 1e-3 * confounded
@@ -65,22 +71,24 @@ def test_plain_maximum_likelihood_pins_E_at_the_confounded_value():
 
 def test_discrepancy_prior_ranges_bound_module_2():
     data = make_cantilever(random_state=1)
-    cal = fit(data, discrepancy_prior={"variance": (0.05, [0.2, 20.0])})
+    cal = fit(data, **PLUG_IN, discrepancy_prior={"variance": (0.05, [0.2, 20.0])})
     scaled = np.diag(cal.discrepancy_sigma2_) / cal.y_scale_**2
     assert np.all(scaled >= 0.05 * (1 - 1e-9)) and scaled[0] <= 0.2 * (1 + 1e-9)
     roughness = cal.discrepancy_kernel_.roughness
     assert np.all((roughness >= 0.1) & (roughness <= 9.0))  # Table 6.2 default
-    fixed = fit(data, discrepancy_prior={"roughness": (2.0, 2.0)})
+    fixed = fit(data, **PLUG_IN, discrepancy_prior={"roughness": (2.0, 2.0)})
     np.testing.assert_allclose(fixed.discrepancy_kernel_.roughness, 2.0)
     # A kernel's own bounds are kept with "roughness": None, and a fixed
     # roughness stays fixed.
     own = fit(
         data,
+        **PLUG_IN,
         discrepancy_kernel=Gauss(0.5, roughness_bounds="fixed"),
     )
     assert own.discrepancy_kernel_.roughness == 0.5
     free = fit(
         data,
+        **PLUG_IN,
         discrepancy_kernel=Gauss(1e-3, roughness_bounds=(1e-4, 1e-2)),
         discrepancy_prior={"roughness": None},
     )
