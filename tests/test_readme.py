@@ -14,8 +14,12 @@ def test_quick_start_runs():
         exec(compile(block, "README.md", "exec"), namespace)
     cal = namespace["cal"]
     assert abs(cal.theta_mean_[0] / 67.8e3 - 1) < 0.01  # as the comments say
+    # As the README says: sharp at E_eff (the data cannot tell the spring
+    # from E), warned through identifiability_; the thesis' plug-in is
+    # about 2.4 GPa wide only because of its floor on the discrepancy.
     sd = cal.theta_cov_[0, 0] ** 0.5
-    assert 2.0e3 < sd < 2.8e3 and abs(cal.theta_mean_[0] - 70e3) < sd
+    assert 0.05e3 < sd < 0.5e3 and abs(cal.theta_mean_[0] - 70e3) > 5 * sd
+    assert cal.identifiability_[0] < 0.05
     assert namespace["std"].shape == (3, 2)
     gp = namespace["gp"]
     assert gp.sigma2_.shape == (2, 2)
