@@ -3,7 +3,9 @@
 Not a unit test: a validation suite that measures, with the package's
 *current defaults*, how often the 95 % intervals of ``ModularBayesCalibrator``
 contain the truth, over seeded replicates of the problems of issue 13 (the
-cases live in ``_validity_cases.py``; see there what each one is).
+cases live in ``_validity_cases.py`` and, for the simulation-based
+calibration with everything drawn from the default priors, ``_sbc_cases.py``;
+see there what each one is).
 
 Per replicate (one seed of one case) it fits
 ``ModularBayesCalibrator(prior=..., random_state=seed, n_jobs=1)`` on the
@@ -40,6 +42,7 @@ Usage::
     python benchmarks/validity.py --n-seeds 20 --n-jobs 2 --out /tmp/validity
     python benchmarks/validity.py --cases a2,freq --n-seeds 4
     python benchmarks/validity.py --n-seeds 20 --case-seeds a2=10,sbc_a2=10
+    python benchmarks/validity.py --combine /tmp/run1,/tmp/run2 --out /tmp/all
 
 ``--out DIR`` writes ``replicates.csv`` (one row per replicate and
 parameter), ``replicates.npz`` (per case arrays), ``table.txt`` and the
@@ -73,14 +76,36 @@ N_TEST = 50  # held-out inputs of the predictive checks
 N_RANK = 100  # thinned posterior draws of the SBC rank
 PRIOR_LIKE = 0.9  # a posterior sd above this share of the prior's: nothing learnt
 # slowest first, so that the parallel replicates end together
-COST_ORDER = ("sbc_a2", "a2", "b2", "freq", "c3", "c1", "b1", "a1", "sbc_a1")
+COST_ORDER = (
+    "sbc_a2",
+    "sbc0_a2",
+    "a2",
+    "b2",
+    "freq",
+    "c3",
+    "c1",
+    "b1",
+    "a1",
+    "sbc_a1",
+    "sbc0_a1",
+)
 
 
 def cases():
-    """The ``CASES`` registry of ``_validity_cases`` (next to this file)."""
+    """The registry of cases: ``_validity_cases`` and ``_sbc_cases``.
+
+    The SBC cases of ``_sbc_cases`` (everything drawn from the default
+    priors) are ``sbc_a1`` and ``sbc_a2``; the earlier ones of
+    ``_validity_cases``, which draw only theta* and no discrepancy, stay
+    reachable as ``sbc0_a1`` and ``sbc0_a2``.
+    """
     if str(HERE) not in sys.path:
         sys.path.insert(0, str(HERE))
-    return importlib.import_module("_validity_cases").CASES
+    registry = dict(importlib.import_module("_validity_cases").CASES)
+    for name in ("sbc_a1", "sbc_a2"):
+        registry[name.replace("sbc_", "sbc0_")] = registry.pop(name)
+    registry.update(importlib.import_module("_sbc_cases").SBC_CASES)
+    return registry
 
 
 # --------------------------------------------------------------------------
@@ -456,6 +481,30 @@ def plot_ranks(summary, path, n_rank=N_RANK):
     plt.close(fig)
 
 
+def combined_ranks(directories, n_rank=N_RANK):
+    """What :func:`plot_ranks` needs, from the ``replicates.npz`` of runs.
+
+    Cases of several runs (say, the cheap cases with 50 seeds and the MCMC
+    cases with fewer) then share one figure.
+    """
+    summary = {}
+    for directory in directories:
+        arrays = np.load(Path(directory) / "replicates.npz")
+        for key in arrays.files:
+            name, field = key.split("__")
+            if field != "rank":
+                continue
+            ranks = arrays[key]
+            tests = [rank_tests(col, n_rank) for col in ranks.T]
+            summary[name] = {
+                "n_ok": len(ranks),
+                "ranks": ranks,
+                "chi2_p": [t[0] for t in tests],
+                "ks_p": [t[1] for t in tests],
+            }
+    return summary
+
+
 # --------------------------------------------------------------------------
 # command line
 # --------------------------------------------------------------------------
@@ -516,7 +565,20 @@ def main(argv=None):
     )
     parser.add_argument("--out", default=None, help="directory for the results")
     parser.add_argument("--quiet", action="store_true", help="no progress lines")
+    parser.add_argument(
+        "--combine",
+        default="",
+        help="comma list of earlier --out directories: draw their rank "
+        "histograms in one figure, --out/validity_ranks.png, and stop",
+    )
     args = parser.parse_args(argv)
+    if args.combine:
+        if not args.out:
+            parser.error("--combine needs --out")
+        Path(args.out).mkdir(parents=True, exist_ok=True)
+        directories = [d for d in args.combine.split(",") if d]
+        plot_ranks(combined_ranks(directories), Path(args.out) / "validity_ranks.png")
+        return None
     names = [c.strip() for c in args.cases.split(",") if c.strip()]
     unknown = [c for c in names if c not in specs]
     if unknown:

@@ -182,7 +182,10 @@ class _Coordinates:
         return self.to_v(p)
 
     def objective(self, v):
-        value, grad = self.log_posterior(v)
+        # Line searches may step to hyperparameters whose exponentials
+        # overflow: the value is then non-finite and handled here.
+        with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+            value, grad = self.log_posterior(v)
         if not np.isfinite(value):
             return 1e300, np.zeros_like(v)
         return -value, -grad
