@@ -155,6 +155,25 @@ def test_cases_build_the_documented_problems():
         assert len({tuple(t) for t in thetas}) == 3  # drawn per seed
 
 
+def test_sbc_cases_draw_everything_from_the_default_priors():
+    registry = validity.cases()
+    assert {"sbc_a1", "sbc_a2", "sbc0_a1", "sbc0_a2"} <= set(registry)
+    for name, model in (("sbc_a1", make_model_of_a1()), ("sbc_a2", None)):
+        spec = registry[name]
+        one, again = spec.build(3), spec.build(3)
+        np.testing.assert_array_equal(one.y, again.y)  # a function of the seed
+        model = model or _validity_cases.quadratic_model
+        theta = np.tile(one.theta_true, (len(one.X), 1))
+        delta = one.reality_fn(one.X) - model(one.X, theta)
+        assert np.all(np.abs(delta) > 0)  # a discrepancy is drawn
+        # ... of the size its prior gives, in units of the simulations' spread
+        assert np.all(delta.std(axis=0) < 5 * one.y_sim.std(axis=0))
+        resid = one.y - one.reality_fn(one.X)
+        assert np.all(resid.std(axis=0) < 4 * one.noise_sd)
+        thetas = [spec.build(s).theta_true for s in range(3)]
+        assert len({tuple(t) for t in thetas}) == 3
+
+
 def make_model_of_a1():
     from skmba.datasets import make_cantilever
 
