@@ -176,7 +176,8 @@ class _Coordinates:
         p = self.lo.copy()
         b = self.bounded
         p[b] = rng.uniform(self.lo[b], self.hi[b])
-        p[k + q : k + 2 * q] = np.log(np.abs(rng.normal(0, self.prior.sd_scale, q)))
+        sd = np.abs(rng.normal(0, self.prior.scales(q), q))
+        p[k + q : k + 2 * q] = np.log(sd)
         L = np.linalg.cholesky(lkj_correlation(q, self.prior.correlation_eta, rng))
         p[k + 2 * q :] = (L / np.diag(L)[:, None])[np.tril_indices(q, -1)]
         return self.to_v(p)
@@ -286,6 +287,7 @@ def fit_hyperposterior(
         kernel_d = bound_roughness(kernel_d, lo, hi)
     check_module2_memory(kernel_d, residual)
     H_d = regression_basis(X_e, regression)
+    prior.scales(residual.shape[1])  # one sd_scale per response, or one
     fit = DiscrepancyFit(
         kernel_d,
         X_e,

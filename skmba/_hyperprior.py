@@ -51,9 +51,11 @@ class Hyperprior:
 
     Parameters
     ----------
-    sd_scale : float, default=0.5
+    sd_scale : float or array of shape (q,), default=0.5
         Scale of the half-normal prior of each response's discrepancy
-        standard deviation.
+        standard deviation; one per response to say that some responses'
+        model error is known to be smaller (thesis section 6.3 trusts the
+        tip rotation).
     correlation_eta : float, default=2.0
         Shape of the LKJ prior of the discrepancy correlation between
         responses (1: uniform over correlation matrices).
@@ -86,10 +88,15 @@ class Hyperprior:
                 "discrepancy_uncertainty='plug-in')."
             )
         prior = cls(**spec)
-        for key in ("sd_scale", "correlation_eta"):
-            value = getattr(prior, key)
-            if not (np.isscalar(value) and np.isfinite(value) and value > 0):
-                raise ValueError(f"{name}[{key!r}] must be a positive number.")
+        scale = np.asarray(prior.sd_scale, dtype=float)
+        if scale.ndim > 1 or not (np.all(np.isfinite(scale)) and np.all(scale > 0)):
+            raise ValueError(
+                f"{name}['sd_scale'] must be a positive number or a 1-D array of "
+                f"them (one per response), got {prior.sd_scale!r}."
+            )
+        eta = prior.correlation_eta
+        if not (np.isscalar(eta) and np.isfinite(eta) and eta > 0):
+            raise ValueError(f"{name}['correlation_eta'] must be a positive number.")
         for key in ("roughness", "noise"):
             lo, hi = np.asarray(getattr(prior, key), dtype=float).reshape(-1)[:2]
             if not (np.size(getattr(prior, key)) == 2 and 0 < lo < hi < np.inf):
@@ -99,13 +106,24 @@ class Hyperprior:
                 )
         return prior
 
+    def scales(self, q, name="discrepancy_prior"):
+        """``sd_scale`` for ``q`` responses (checked)."""
+        scale = np.asarray(self.sd_scale, dtype=float)
+        if scale.ndim == 1 and scale.size != q:
+            raise ValueError(
+                f"{name}['sd_scale'] has {scale.size} values for {q} responses; "
+                "give one per response or a single number."
+            )
+        return np.broadcast_to(scale, (q,))
+
     # -------------------------------------------------- log densities
     def log_sd(self, log_sd):
         """Log density of ``log sd`` (half-normal on ``sd``, with Jacobian),
         and its derivative."""
+        scale2 = self.scales(np.size(log_sd)) ** 2
         sd2 = np.exp(2.0 * log_sd)
-        value = -0.5 * sd2 / self.sd_scale**2 + log_sd
-        return float(np.sum(value)), 1.0 - sd2 / self.sd_scale**2
+        value = -0.5 * sd2 / scale2 + log_sd
+        return float(np.sum(value)), 1.0 - sd2 / scale2
 
     def log_correlation(self, z, q):
         """Log density of the correlation factor's free entries ``z``.
@@ -137,7 +155,8 @@ class Hyperprior:
     def log_sd_normalised(self, log_sd):
         """:meth:`log_sd` with the half-normal's normalising constant."""
         value, _ = self.log_sd(log_sd)
-        return value + np.size(log_sd) * np.log(np.sqrt(2.0 / np.pi) / self.sd_scale)
+        scale = self.scales(np.size(log_sd))
+        return value + float(np.sum(np.log(np.sqrt(2.0 / np.pi) / scale)))
 
     # -------------------------------------------------- draws
     def rvs(self, d, q, random_state=None):
@@ -150,14 +169,14 @@ class Hyperprior:
         log_uniform = stats.loguniform
         return {
             "roughness": log_uniform.rvs(*self.roughness, size=d, random_state=rng),
-            "sd": np.abs(rng.normal(0.0, self.sd_scale, q)),
+            "sd": np.abs(rng.normal(0.0, self.scales(q), q)),
             "correlation": lkj_correlation(q, self.correlation_eta, rng),
             "noise": log_uniform.rvs(*self.noise, size=q, random_state=rng),
         }
 
-    def sd_quantile(self, level):
-        """The ``level`` quantile of the prior of a discrepancy's sd."""
-        return float(stats.halfnorm.ppf(level, scale=self.sd_scale))
+    def sd_quantile(self, level, q=1):
+        """The ``level`` quantile of the prior of each of ``q`` discrepancy sds."""
+        return stats.halfnorm.ppf(level, scale=self.scales(q))
 
 
 def lkj_correlation(q, eta, rng):

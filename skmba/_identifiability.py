@@ -109,7 +109,7 @@ def identifiability(model, theta, hyperprior):
     V0 = np.kron(model.sigma2_m, T) + np.kron(np.diag(model.noise), np.eye(n))
     sd = np.sqrt(np.clip(np.diag(model.sigma2_d), 1e-300, None))
     corr = model.sigma2_d / np.outer(sd, sd)
-    big = np.full(q, hyperprior.sd_quantile(PROBE_LEVEL))
+    big = hyperprior.sd_quantile(PROBE_LEVEL, q)
     K_d = np.kron(corr * np.outer(big, big), model.kernel_d(X_e))
     X_d = np.kron(np.eye(q), regression_basis(X_e, model.regression_d))
     return information_ratio(J, V0, K_d, X_d)

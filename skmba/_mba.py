@@ -87,7 +87,9 @@ def check_global_memory(N, n, q, P, jobs, draws=1):
 def module2_prior(est, d, q):
     """The module-2 prior of the estimator: a Hyperprior, or plug-in ranges."""
     if est.discrepancy_uncertainty == "propagate":
-        return Hyperprior.from_spec(est.discrepancy_prior)
+        prior = Hyperprior.from_spec(est.discrepancy_prior)
+        prior.scales(q)  # one sd_scale per response, or one for all
+        return prior
     return check_discrepancy_ranges(est.discrepancy_prior, d, q)
 
 

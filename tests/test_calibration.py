@@ -387,6 +387,12 @@ BAD_INPUT = [
         params=dict(discrepancy_prior={"sd_scale": -0.5}),
     ),
     case(
+        "hyperprior-sd-scale-per-response",
+        ValueError,
+        r"discrepancy_prior\['sd_scale'\] has 3 values for 2 responses",
+        params=dict(discrepancy_prior={"sd_scale": [0.5, 0.5, 0.1]}),
+    ),
+    case(
         "hyperprior-noise-reversed",
         ValueError,
         r"discrepancy_prior\['noise'\] must be a range \(low, high\) with "

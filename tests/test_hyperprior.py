@@ -73,7 +73,13 @@ def test_draws_follow_the_prior():
     assert stats.kstest(rough, stats.loguniform(0.1, 9.0).cdf).pvalue > 1e-3
     noise = np.array([d["noise"] for d in draws]).ravel()
     assert stats.kstest(noise, stats.loguniform(1e-6, 1.0).cdf).pvalue > 1e-3
-    assert prior.sd_quantile(0.95) == pytest.approx(0.5 * 1.959964, rel=1e-6)
+    assert prior.sd_quantile(0.95)[0] == pytest.approx(0.5 * 1.959964, rel=1e-6)
+    per_response = Hyperprior(sd_scale=[0.5, 0.01])
+    np.testing.assert_allclose(
+        per_response.sd_quantile(0.95, 2), [0.98, 0.0196], rtol=1e-4
+    )
+    with pytest.raises(ValueError, match="has 2 values for 3 responses"):
+        per_response.rvs(1, 3, random_state=0)
 
 
 def test_same_seed_same_draw():
@@ -87,6 +93,8 @@ def test_same_seed_same_draw():
         ([1], TypeError, "must be None or a dict"),
         ({"variance": (0.01, 20)}, ValueError, "belong to discrepancy_uncertainty"),
         ({"sd_scale": -1.0}, ValueError, "sd_scale.*positive"),
+        ({"sd_scale": [[0.5]]}, ValueError, "sd_scale.*1-D array"),
+        ({"correlation_eta": 0.0}, ValueError, "correlation_eta.*positive"),
         ({"noise": (1.0, 0.1)}, ValueError, r"noise.*0 < low < high"),
         ({"roughness": (0.0, 9.0)}, ValueError, r"roughness.*0 < low < high"),
     ],
