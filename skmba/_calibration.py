@@ -219,7 +219,7 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
     identifiability_ : ndarray of shape (r,)
         Per parameter, the ratio of its linearised posterior sd without a
         discrepancy to that with a discrepancy of plausible size (each
-        response's at the 95 % point of the default prior of its sd), near
+        response's at the 95 % point of the prior of its sd), near
         the posterior mean: near 1, the data identify it whatever the
         discrepancy; below 1/3 ``fit`` warns
         (:class:`~skmba.exceptions.NonIdentifiabilityWarning`): a
