@@ -56,6 +56,7 @@ from __future__ import annotations
 import argparse
 import csv
 import importlib
+import re
 import sys
 import time
 import warnings
@@ -75,6 +76,7 @@ Z_LEVEL = float(stats.norm.ppf(0.5 + LEVEL / 2))
 N_TEST = 50  # held-out inputs of the predictive checks
 N_RANK = 100  # thinned posterior draws of the SBC rank
 PRIOR_LIKE = 0.9  # a posterior sd above this share of the prior's: nothing learnt
+_NUMBER = re.compile(r"[-+]?\d+(?:\.\d+)?(?:[eE][-+]?\d+)?")
 # slowest first, so that the parallel replicates end together
 COST_ORDER = (
     "sbc_a2",
@@ -270,6 +272,15 @@ def rank_tests(ranks, n_rank=N_RANK):
     return float(chi2), float(ks)
 
 
+def message_kind(message, width=90):
+    """A warning message with its numbers masked as ``#``, cut to ``width``.
+
+    Messages that differ only in the values they quote (an R-hat, an
+    identifiability) then count as one kind.
+    """
+    return _NUMBER.sub("#", message)[:width]
+
+
 def summarise(records, n_rank=N_RANK):
     """Per-case summary (dict of dicts, in the order of first appearance)."""
     by_case = {}
@@ -285,7 +296,7 @@ def summarise(records, n_rank=N_RANK):
         messages = Counter()
         for r in recs:
             fired.update(set(r["warning_categories"]))
-            messages.update({m[:90] for m in r["warning_messages"]})
+            messages.update({message_kind(m) for m in r["warning_messages"]})
         s["warnings"], s["messages"] = fired, messages
         if n:
             stack = {k: np.array([r[k] for r in ok]) for k in ok[0] if k in _ARRAYS}
@@ -385,7 +396,7 @@ def format_tables(summary):
     for s in summary.values():
         messages.update(s["messages"])
     if messages:
-        lines += ["", "warning messages (replicates, first 90 characters):"]
+        lines += ["", "warning messages (replicates; numbers as #, first 90 chars):"]
         lines += [f"  {k:>4}  {m}" for m, k in messages.most_common()]
     errors = {n: dict(s["errors"]) for n, s in summary.items() if s["errors"]}
     if errors:
