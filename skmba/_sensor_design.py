@@ -100,7 +100,10 @@ class PreposteriorDesigner(BaseEstimator):
         regressions, ``module2_variance``, ``emulator_alpha``,
         ``n_restarts_optimizer``, ``discrepancy_optimizer``,
         ``n_integration_nodes``, ``noise``). It is cloned, never fitted.
-        None means ``ModularBayesCalibrator()``. The discrepancy kernel must
+        None means ``ModularBayesCalibrator()``. The designer's module 2 is
+        the thesis' plug-in whatever the calibrator's
+        ``discrepancy_uncertainty``: its scores predict calibrations with
+        ``discrepancy_uncertainty="plug-in"``. The discrepancy kernel must
         have a ``roughness`` hyperparameter (the kernels of
         :mod:`skmba.kernels`), which ``discrepancy_prior`` draws.
     discrepancy_prior : dict, default=None
