@@ -6,6 +6,13 @@ and the noise, then module 2), and its posterior moments for response
 subsets (:func:`posterior_block`), on module 1-3 functions only; the
 designer (:class:`~skmba.PreposteriorDesigner`) orchestrates them.
 
+Two module-2 treatments, those of the calibrator: ``"plug-in"`` (the
+thesis: data from the uniform priors of Table 6.2, module 2's estimates
+plugged into module 3) and ``"propagate"`` (data from the calibrator's
+default hyperprior, :class:`~skmba._hyperprior.Hyperprior`; module 2's
+hyperposterior draws mixed in module 3, as
+``ModularBayesCalibrator(discrepancy_uncertainty="propagate")`` does).
+
 Examples
 --------
 >>> import numpy as np
@@ -16,15 +23,18 @@ Examples
 
 import time
 import warnings
+from dataclasses import replace
 from numbers import Real
 
 import numpy as np
 from joblib import delayed, effective_n_jobs
-from scipy import stats
+from scipy import special, stats
 from sklearn.base import clone
 from sklearn.exceptions import ConvergenceWarning
 
 from skmba._discrepancy import TABLE_6_2_RANGES, check_interval, fit_discrepancy
+from skmba._hyperposterior import fit_hyperposterior
+from skmba._hyperprior import Hyperprior
 from skmba._importance import posterior_moments
 from skmba._progress import results_as_ready
 from skmba._regression import regression_basis
@@ -60,6 +70,8 @@ class MonteCarloContext:
     """What every Monte Carlo task needs; shipped once per task by joblib."""
 
     def __init__(self, designer, scaler, design, prior, priors, module2):
+        # ``priors``: the plug-in ranges (a dict) or a Hyperprior (propagate).
+        self.hyperprior = priors if isinstance(priors, Hyperprior) else None
         self.scaler = scaler
         self.emulator = design.emulator
         self.design = design
@@ -85,6 +97,7 @@ class Replicate:
     def __init__(self, theta, Y_e, seed):
         self.theta, self.Y_e, self.seed = theta, Y_e, seed
         self.kernel_d = self.sigma2_d = self.noise = None
+        self.draws = None  # module-2 hyperposterior draws (propagate, fast)
         self.truth = None
         self.n_unconverged = 0
 
@@ -94,15 +107,38 @@ def _mask(subset):
     return sum(1 << int(a) for a in subset)
 
 
+def _root(A):
+    """A square root ``B`` with ``B B^T = A`` of a covariance (eigh, clipped)."""
+    values, vectors = np.linalg.eigh(0.5 * (A + A.T))
+    return vectors * np.sqrt(np.clip(values, 0.0, None))
+
+
 def draw_replicate(ctx, sequence):
     """Step 2a (and 2b in phase 1): synthetic field data and module 2."""
     rng = np.random.default_rng(sequence)
-    p = ctx.priors
     n, q = ctx.n, ctx.q
     theta = ctx.prior.rvs(1, random_state=rng)[0]
     Z = np.hstack([ctx.Xs, np.tile(ctx.std_theta(theta), (n, 1))])
     Y_m = ctx.emulator.gp.sample_y(Z, 1, random_state=int_seed(sequence)).reshape(n, q)
-    # Discrepancy hyperparameters and realisation.
+    if ctx.hyperprior is not None:
+        delta, noise, truth = _draw_from_hyperprior(ctx, rng)
+    else:
+        delta, noise, truth = _draw_from_ranges(ctx, rng)
+    eps = rng.standard_normal((n, q)) * np.sqrt(noise)
+    rep = Replicate(theta, Y_m + delta + eps, int_seed(sequence))
+    rep.truth = truth
+    if ctx.fast and ctx.hyperprior is not None:
+        rep.draws = _fit_module2_draws(ctx, rep, range(q))
+    elif ctx.fast:
+        disc = _fit_module2(ctx, rep, range(q))
+        rep.kernel_d, rep.sigma2_d, rep.noise = disc.kernel_, disc.sigma2, disc.noise
+    return rep
+
+
+def _draw_from_ranges(ctx, rng):
+    """Discrepancy and noise variance from the uniform priors (Table 6.2)."""
+    p = ctx.priors
+    n, q = ctx.n, ctx.q
     roughness = rng.uniform(*p["roughness"])
     R_d = clone(ctx.kernel_d).set_params(roughness=roughness)(ctx.Xs)
     sd = np.sqrt(rng.uniform(*p["variance"]))
@@ -116,20 +152,24 @@ def draw_replicate(ctx, sequence):
     sigma2_d = corr * np.outer(sd, sd)
     H_d = ctx.H_d
     beta = rng.uniform(*p["mean"], size=(H_d.shape[1], q))  # per response
-
-    def root(A):
-        values, vectors = np.linalg.eigh(0.5 * (A + A.T))
-        return vectors * np.sqrt(np.clip(values, 0.0, None))
-
-    delta = H_d @ beta + root(R_d) @ rng.standard_normal((n, q)) @ root(sigma2_d).T
+    delta = H_d @ beta + _root(R_d) @ rng.standard_normal((n, q)) @ _root(sigma2_d).T
     noise = rng.uniform(*p["noise"])
-    eps = rng.standard_normal((n, q)) * np.sqrt(noise)
-    rep = Replicate(theta, Y_m + delta + eps, int_seed(sequence))
-    rep.truth = (roughness, sigma2_d, noise)
-    if ctx.fast:
-        disc = _fit_module2(ctx, rep, range(q))
-        rep.kernel_d, rep.sigma2_d, rep.noise = disc.kernel_, disc.sigma2, disc.noise
-    return rep
+    return delta, noise, (roughness, sigma2_d, noise)
+
+
+def _draw_from_hyperprior(ctx, rng):
+    """Discrepancy and noise variance from the calibrator's hyperprior.
+
+    The discrepancy's mean has a flat prior, integrated out by the
+    restricted likelihood of module 2 and by module 3, whose posteriors do
+    not depend on it: it is drawn as zero.
+    """
+    n, q = ctx.n, ctx.q
+    draw = ctx.hyperprior.rvs(ctx.Xs.shape[1], q, random_state=rng)
+    R_d = clone(ctx.kernel_d).set_params(roughness=draw["roughness"])(ctx.Xs)
+    sigma2_d = draw["correlation"] * np.outer(draw["sd"], draw["sd"])
+    delta = _root(R_d) @ rng.standard_normal((n, q)) @ _root(sigma2_d).T
+    return delta, draw["noise"], (draw["roughness"], sigma2_d, draw["noise"])
 
 
 def _fit_module2(ctx, rep, responses):
@@ -167,6 +207,75 @@ def _fit_module2(ctx, rep, responses):
     return disc
 
 
+def _fit_module2_draws(ctx, rep, responses):
+    """The module-2 hyperposterior draws of the responses (propagate).
+
+    The calibrator's :func:`~skmba._hyperposterior.fit_hyperposterior` on
+    the replicate's data, with the emulator integrated over the prior of
+    theta, and the hyperprior restricted to ``responses``.
+    """
+    idx = list(responses)
+    integrated = ctx.integrated.restrict(idx)
+    prior = replace(ctx.hyperprior, sd_scale=ctx.hyperprior.scales(ctx.q)[idx])
+    return fit_hyperposterior(
+        ctx.Xs,
+        rep.Y_e[:, idx] - integrated.mean,
+        integrated.cov,
+        prior=prior,
+        kernel=ctx.module2["kernel"],
+        regression=ctx.module2["regression"],
+        noise=ctx.module2["noise"],
+        n_restarts=ctx.module2["n_restarts"],
+        random_state=np.random.SeedSequence([rep.seed, 1, _mask(idx)]),
+    )
+
+
+def _embedded(sigma2_d, noise, subset, q):
+    """A subset's discrepancy covariance and noise in ``q x q`` arrays."""
+    full = np.zeros((q, q))
+    full[np.ix_(subset, subset)] = sigma2_d
+    noise_full = np.ones(q)
+    noise_full[list(subset)] = noise
+    return full, noise_full
+
+
+def _subset_likelihoods(ctx, rep, subset):
+    """The module-3 likelihoods of a subset and their log weights.
+
+    One likelihood with module 2 plugged in, or one per hyperposterior draw
+    (propagate), mixed with the draws' importance weights.
+    """
+    idx = list(subset)
+    if ctx.hyperprior is not None:
+        draws = rep.draws if ctx.fast else _fit_module2_draws(ctx, rep, subset)
+        pieces = [(c.kernel_, c.sigma2, c.noise) for c in draws.components]
+        log_weights = draws.log_weights
+    elif ctx.fast:
+        pieces, log_weights = [(rep.kernel_d, rep.sigma2_d, rep.noise)], np.zeros(1)
+    else:
+        disc = _fit_module2(ctx, rep, subset)
+        pieces, log_weights = [(disc.kernel_, disc.sigma2, disc.noise)], np.zeros(1)
+    likes = []
+    for kernel_d, sigma2_d, noise in pieces:
+        if not ctx.fast:  # the fit is of the subset alone
+            sigma2_d, noise = _embedded(sigma2_d, noise, idx, ctx.q)
+        likes.append(
+            SubsetLikelihood(
+                ctx.design, idx, rep.Y_e, kernel_d(ctx.Xs), ctx.H_d, sigma2_d, noise
+            )
+        )
+    return likes, log_weights
+
+
+def _mixed(likes, log_weights, pieces):
+    """``log sum_k w_k L_k`` at the emulator ``pieces`` of some thetas."""
+    if len(likes) == 1:
+        return likes[0].log_likelihood(pieces)
+    values = np.array([like.log_likelihood(pieces) for like in likes])
+    with np.errstate(invalid="ignore"):  # -inf + finite weights
+        return special.logsumexp(values + log_weights[:, None], axis=0)
+
+
 def posterior_block(ctx, replicates, subsets):
     """Step 2b-2c for some replicates and subsets: posterior moments."""
     r = ctx.prior.dim
@@ -175,25 +284,10 @@ def posterior_block(ctx, replicates, subsets):
     design = ctx.design
     for i, rep in enumerate(replicates):
         for j, subset in enumerate(subsets):
-            if ctx.fast:
-                kernel_d, sigma2_d, noise = rep.kernel_d, rep.sigma2_d, rep.noise
-                idx = list(subset)
-            else:
-                disc = _fit_module2(ctx, rep, subset)
-                kernel_d, sigma2_d, noise = disc.kernel_, disc.sigma2, disc.noise
-                # The fit is of the subset alone: embed it in q x q arrays.
-                full = np.zeros((ctx.q, ctx.q))
-                full[np.ix_(subset, subset)] = sigma2_d
-                noise_full = np.ones(ctx.q)
-                noise_full[list(subset)] = noise
-                sigma2_d, noise = full, noise_full
-                idx = list(subset)
-            like = SubsetLikelihood(
-                design, idx, rep.Y_e, kernel_d(ctx.Xs), ctx.H_d, sigma2_d, noise
-            )
+            likes, log_w = _subset_likelihoods(ctx, rep, subset)
 
-            def log_likelihood(thetas, like=like):
-                return like.log_likelihood(design.pieces(ctx.std_theta(thetas)))
+            def log_likelihood(thetas, likes=likes, log_w=log_w):
+                return _mixed(likes, log_w, design.pieces(ctx.std_theta(thetas)))
 
             seed = int_seed(np.random.SeedSequence([rep.seed, 2, _mask(subset)]))
             means[i, j], covs[i, j] = posterior_moments(
@@ -201,7 +295,7 @@ def posterior_block(ctx, replicates, subsets):
                 ctx.prior,
                 ctx.nodes,
                 ctx.weights,
-                like.log_likelihood(ctx.pieces),
+                _mixed(likes, log_w, ctx.pieces),
                 seed=seed,
             )
     return means, covs

@@ -43,8 +43,9 @@ from skmba._discrepancy import (
     discrepancy_kernel,
 )
 from skmba._emulator import Standardizer, fit_emulator
+from skmba._hyperprior import Hyperprior
 from skmba._integration import integrate_over_prior
-from skmba._mba import module_settings
+from skmba._mba import DISCREPANCY_UNCERTAINTIES, module_settings
 from skmba._preposterior import (
     PRIOR_UNITS,
     MonteCarloContext,
@@ -100,14 +101,16 @@ class PreposteriorDesigner(BaseEstimator):
         regressions, ``module2_variance``, ``emulator_alpha``,
         ``n_restarts_optimizer``, ``discrepancy_optimizer``,
         ``n_integration_nodes``, ``noise``). It is cloned, never fitted.
-        None means ``ModularBayesCalibrator()``. The designer's module 2 is
-        the thesis' plug-in whatever the calibrator's
-        ``discrepancy_uncertainty``: its scores predict calibrations with
-        ``discrepancy_uncertainty="plug-in"``. The discrepancy kernel must
-        have a ``roughness`` hyperparameter (the kernels of
-        :mod:`skmba.kernels`), which ``discrepancy_prior`` draws.
+        None means ``ModularBayesCalibrator()``. Its
+        ``discrepancy_uncertainty`` and ``discrepancy_prior`` are not used:
+        the designer's own parameters of those names set them. The
+        discrepancy kernel must have a ``roughness`` hyperparameter (the
+        kernels of :mod:`skmba.kernels`), which ``discrepancy_prior`` draws.
     discrepancy_prior : dict, default=None
-        Uniform priors of the discrepancy GP, in the standardised units of the
+        With ``discrepancy_uncertainty="propagate"``, the calibrator's
+        hyperprior (keys ``sd_scale``, ``correlation_eta``, ``roughness``,
+        ``noise``; None: its defaults). With ``"plug-in"``, uniform priors
+        of the discrepancy GP, in the standardised units of the
         simulations (inputs and responses centred and scaled to unit
         variance), as in thesis Table 6.2 (the default)::
 
@@ -128,6 +131,19 @@ class PreposteriorDesigner(BaseEstimator):
         likelihood within the ``roughness`` and ``variance`` ranges (the
         maximum a posteriori under this prior, as the calibrator does with
         its own ``discrepancy_prior``, which the designer does not use).
+    discrepancy_uncertainty : {"plug-in", "propagate"}, default="plug-in"
+        The module-2 treatment whose calibrations the scores predict.
+        ``"plug-in"``: the thesis' FPA, with synthetic data from the uniform
+        priors ``discrepancy_prior`` and ``noise_prior`` (Table 6.2) and
+        module 2's estimates plugged into module 3, as
+        ``ModularBayesCalibrator(discrepancy_uncertainty="plug-in")``.
+        ``"propagate"``: synthetic data from the calibrator's default prior
+        of the discrepancy and the noise (``discrepancy_prior`` then takes
+        its keys ``sd_scale``, ``correlation_eta``, ``roughness``, ``noise``;
+        see :ref:`module-2-uncertainty`), and module 3 mixing over module 2's
+        hyperposterior draws, as the calibrator's default does: the scores
+        predict the default calibrator. About ``N_HYPER_DRAWS`` (16) times
+        slower in phase 2. The ``calibrator``'s own setting is not used.
     noise_prior : (low, high), default=None
         Uniform prior of each response's noise variance, relative to the
         response's variance in the simulations (scalars or arrays of length
@@ -291,6 +307,7 @@ class PreposteriorDesigner(BaseEstimator):
             )
         ],
         "discrepancy_prior": "no_validation",  # check_design_priors, in fit
+        "discrepancy_uncertainty": [Options(DISCREPANCY_UNCERTAINTIES)],
         "noise_prior": "no_validation",
         "X_design": "no_validation",  # check_array, in fit
         "n_design": [Count(minimum=2, allow_none=True)],
@@ -314,6 +331,7 @@ class PreposteriorDesigner(BaseEstimator):
         *,
         calibrator=None,
         discrepancy_prior=None,
+        discrepancy_uncertainty="plug-in",
         noise_prior=None,
         X_design=None,
         n_design=None,
@@ -333,6 +351,7 @@ class PreposteriorDesigner(BaseEstimator):
         self.prior = prior
         self.calibrator = calibrator
         self.discrepancy_prior = discrepancy_prior
+        self.discrepancy_uncertainty = discrepancy_uncertainty
         self.noise_prior = noise_prior
         self.X_design = X_design
         self.n_design = n_design
@@ -403,14 +422,7 @@ class PreposteriorDesigner(BaseEstimator):
             random_state=seeds[0],
             progress=self._progress(),
         )
-        priors = check_design_priors(
-            self.discrepancy_prior,
-            self.noise_prior,
-            self.prior_units,
-            d,
-            q,
-            scaler.y_scale,
-        )
+        priors = self._design_priors(d, q, scaler.y_scale)
         X_design = self._design(X_sim, seeds[2])
         ctx = self._context(cal, prior, priors, scaler, emulator, X_design, seeds)
         prior_sd = np.sqrt(np.diag(prior.cov()))
@@ -477,6 +489,32 @@ class PreposteriorDesigner(BaseEstimator):
                 "are recommended."
             )
         return prior, d
+
+    def _design_priors(self, d, q, y_scale):
+        """The priors of the synthetic data: ranges (plug-in) or a Hyperprior."""
+        if self.discrepancy_uncertainty == "plug-in":
+            return check_design_priors(
+                self.discrepancy_prior,
+                self.noise_prior,
+                self.prior_units,
+                d,
+                q,
+                y_scale,
+            )
+        for name, value, default in (
+            ("noise_prior", self.noise_prior, None),
+            ("prior_units", self.prior_units, "standardised"),
+        ):
+            if value != default:
+                raise ValueError(
+                    f"{name}={value!r} belongs to discrepancy_uncertainty='plug-in'; "
+                    "with 'propagate' the noise prior is discrepancy_prior['noise'] "
+                    "and every prior is in standardised units: leave "
+                    f"{name} at {default!r}."
+                )
+        prior = Hyperprior.from_spec(self.discrepancy_prior)
+        prior.scales(q)
+        return prior
 
     def _template(self):
         """The calibrator whose MBA settings the designer uses, checked."""

@@ -109,6 +109,74 @@ def test_fast_and_full_rankings_agree(small, exhaustive):
     assert rho >= 0.8, rho
 
 
+@pytest.fixture(scope="module")
+def propagated(small):
+    data, X = small
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return designer(data.prior, discrepancy_uncertainty="propagate", n_mc=4).fit(
+            X, data.y_sim
+        )
+
+
+def test_propagate_mixes_module_2_draws_as_the_calibrator_does(small, propagated):
+    """Each replicate's likelihood is the calibrator's mixture over phi_k."""
+    d = propagated
+    assert d.subsets_ == [(0,), (1,), (2,), (0, 1), (0, 2), (1, 2), (0, 1, 2)]
+    assert np.all((d.scores_ > 0) & (d.scores_ < 1.05))
+    np.testing.assert_allclose(d.convergence_[-1], d.scores_)
+    # The same replicates' theta as the plug-in designer: only module 2 and
+    # the discrepancy and noise of the synthetic data differ.
+    data, X = small
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        plug_in = designer(data.prior, n_mc=4).fit(X, data.y_sim)
+    np.testing.assert_array_equal(d.theta_draws_, plug_in.theta_draws_)
+    assert not np.allclose(d.scores_, plug_in.scores_)
+
+
+def test_propagate_full_subset_is_the_same_fit_fast_or_not(small, propagated):
+    """With every response, re-estimating module 2 per subset (fast=False)
+    fits the very same data with the same seed: identical scores."""
+    data, X = small
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        full = designer(
+            data.prior, discrepancy_uncertainty="propagate", n_mc=4, fast=False
+        ).fit(X, data.y_sim)
+    np.testing.assert_allclose(full.scores_[-1], propagated.scores_[-1], rtol=1e-12)
+    # Smaller subsets are fitted on their own responses: other estimates.
+    assert not np.allclose(full.scores_[:-1], propagated.scores_[:-1])
+
+
+def test_propagate_same_result_for_any_n_jobs(small, propagated):
+    data, X = small
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        other = designer(
+            data.prior, discrepancy_uncertainty="propagate", n_mc=4, n_jobs=2
+        ).fit(X, data.y_sim)
+    np.testing.assert_array_equal(other.scores_, propagated.scores_)
+
+
+def test_mixture_of_subset_likelihoods_is_their_weighted_log_sum():
+    """``_mixed``: log sum_k w_k L_k, and L itself for one component."""
+    from skmba._preposterior import _mixed
+
+    class Fixed:
+        def __init__(self, values):
+            self.values = np.asarray(values, dtype=float)
+
+        def log_likelihood(self, pieces):
+            return self.values
+
+    likes = [Fixed([-1.0, -2.0]), Fixed([-3.0, -np.inf])]
+    log_w = np.log([0.25, 0.75])
+    expected = np.log(0.25 * np.exp([-1.0, -2.0]) + 0.75 * np.exp([-3.0, -np.inf]))
+    np.testing.assert_allclose(_mixed(likes, log_w, None), expected)
+    np.testing.assert_array_equal(_mixed(likes[:1], np.zeros(1), None), [-1.0, -2.0])
+
+
 def test_greedy_and_genetic_find_the_exhaustive_optimum(cantilever):
     data, X = cantilever
     found = {}
@@ -198,6 +266,37 @@ def test_verbose_reports_progress(small, capsys):
             "not positive definite",
         ),
         ({"noise_prior": (-1.0, 1.0)}, ValueError, "noise_prior must be >= 0"),
+        (
+            {"discrepancy_uncertainty": "mixed"},
+            ValueError,
+            "discrepancy_uncertainty='mixed' is not supported",
+        ),
+        (
+            {"discrepancy_uncertainty": "propagate", "noise_prior": (0, 1e-4)},
+            ValueError,
+            r"noise_prior=\(0, 0.0001\) belongs to discrepancy_uncertainty='plug-in'",
+        ),
+        (
+            {"discrepancy_uncertainty": "propagate", "prior_units": "user"},
+            ValueError,
+            "prior_units='user' belongs to discrepancy_uncertainty='plug-in'",
+        ),
+        (
+            {
+                "discrepancy_uncertainty": "propagate",
+                "discrepancy_prior": {"variance": (0.01, 20.0)},
+            },
+            ValueError,
+            "the ranges 'variance' belong to discrepancy_uncertainty='plug-in'",
+        ),
+        (
+            {
+                "discrepancy_uncertainty": "propagate",
+                "discrepancy_prior": {"sd_scale": [0.5, 0.5]},
+            },
+            ValueError,
+            r"discrepancy_prior\['sd_scale'\] has 2 values for 3 responses",
+        ),
         (
             {"calibrator": ModularBayesCalibrator(discrepancy_kernel=RBF())},
             TypeError,

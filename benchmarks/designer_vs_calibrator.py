@@ -1,0 +1,203 @@
+"""Does the sensor designer predict the calibrator? (issue 13)
+
+The fast preposterior analysis of :class:`~skmba.PreposteriorDesigner`
+predicts, for each subset of the responses, the posterior variance of theta
+that the calibration will have, averaged over data drawn from its priors.
+This study checks that prediction against the calibrator itself, under the
+same module-2 treatment, the default (``discrepancy_uncertainty=
+"propagate"``):
+
+1. the cantilever of section 4.7 with three responses (tip displacement,
+   energy, tip rotation) and 54 simulations;
+2. per seed, E* from its prior and field data drawn from the priors the
+   designer assumes, the calibrator's default hyperprior of the
+   discrepancy and the noise (one discrepancy function and the noise drawn
+   as in the SBC cases of ``_sbc_cases.py``), the model being the
+   fixed-support beam itself;
+3. for each of the 7 subsets, ``ModularBayesCalibrator()`` on those
+   responses: its posterior variance of E, whether its 95 % interval
+   covers E*, and z;
+4. the designer with the same treatment and ``--n-mc`` replicates, whose
+   Latin hypercube of 25 forces is the field design of step 2: its
+   expected posterior variance per subset and the Monte Carlo standard
+   error of it (the jackknife of ``scores_mcse_``).
+
+It prints per subset the calibrator's coverage (Wilson interval), rms z,
+mean posterior variance with its standard error over the seeds, the
+designer's expected variance with its standard error, and their difference
+in units of the combined standard error.
+
+Usage::
+
+    python benchmarks/designer_vs_calibrator.py --n-seeds 30 --n-jobs 2
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+import threadpoolctl
+from joblib import Parallel, delayed
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from _sbc_cases import draw_field_data
+from _validity_cases import CANTILEVER_X_BOUNDS
+from validity import rms, wilson_interval
+
+from skmba import ModularBayesCalibrator, PreposteriorDesigner
+from skmba.datasets import make_cantilever
+
+RESPONSES = ("tip_displacement", "energy", "tip_rotation")
+LETTERS = "ABC"
+N_SIM, N_OBS = 54, 25
+LEVEL = 0.95
+
+
+def problem():
+    """The simulations, the field design and the prior (fixed over seeds)."""
+    return make_cantilever(
+        N_SIM,
+        N_OBS,
+        responses=RESPONSES,
+        spring_stiffness=np.inf,
+        snr_db=None,
+        random_state=0,
+    )
+
+
+def subsets():
+    q = len(RESPONSES)
+    return [s for k in range(1, q + 1) for s in itertools.combinations(range(q), k)]
+
+
+def one_seed(seed, X_field):
+    """E*, then per subset: posterior variance, covered, z (never raises)."""
+    data = problem()
+    lo, hi = data.prior[0].support()
+    rng = np.random.default_rng([int(seed), 2])
+    theta = np.array([lo + (hi - lo) * rng.uniform()])
+    _, y, _ = draw_field_data(
+        seed, data.simulator, theta, X_field, data.X_sim, data.y_sim,
+        CANTILEVER_X_BOUNDS,
+    )  # fmt: skip
+    out = []
+    with threadpoolctl.threadpool_limits(1), warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for subset in subsets():
+            cols = list(subset)
+            try:
+                cal = ModularBayesCalibrator(
+                    prior=data.prior,
+                    random_state=seed,
+                    n_jobs=1,
+                ).fit(
+                    X_field,
+                    y[:, cols],
+                    X_sim=data.X_sim,
+                    theta_sim=data.theta_sim,
+                    y_sim=data.y_sim[:, cols],
+                )
+            except Exception as exc:  # a failed fit is a result
+                out.append({"subset": subset, "error": f"{type(exc).__name__}: {exc}"})
+                continue
+            q_lo, q_hi = np.quantile(
+                cal.theta_samples_[:, 0], [(1 - LEVEL) / 2, (1 + LEVEL) / 2]
+            )
+            var = float(cal.theta_cov_[0, 0])
+            out.append(
+                {
+                    "subset": subset,
+                    "var": var,
+                    "covered": bool(q_lo <= theta[0] <= q_hi),
+                    "z": float((cal.theta_mean_[0] - theta[0]) / np.sqrt(var)),
+                    "error": "",
+                }
+            )
+    return out
+
+
+def run_designer(n_mc, n_jobs):
+    data = problem()
+    X = np.hstack([data.X_sim, data.theta_sim])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        designer = PreposteriorDesigner(
+            data.prior,
+            discrepancy_uncertainty="propagate",  # the calibrator's default
+            n_design=N_OBS,
+            n_mc=n_mc,
+            n_jobs=n_jobs,
+            random_state=0,
+        ).fit(X, data.y_sim)
+    prior_var = float(data.prior[0].var())
+    expected = designer.preposterior_cov_[:, 0, 0]
+    se = designer.scores_mcse_ * prior_var  # one parameter: score = var ratio
+    moments = zip(expected, se, strict=True)
+    return dict(zip(designer.subsets_, moments, strict=True)), designer.X_design_
+
+
+def table(records, designed, n_seeds):
+    by_subset = {s: [] for s in subsets()}
+    for rec in records:
+        by_subset[rec["subset"]].append(rec)
+    lines = [
+        f"{'subset':<7}{'n':>4}  {'covered':<8}{'Wilson 95 %':<15}{'rms z':>6}  "
+        f"{'calibrator var [GPa^2]':<24}{'designer var [GPa^2]':<24}{'diff/se':>8}",
+        "-" * 98,
+    ]
+    worst = 0.0
+    for subset, recs in by_subset.items():
+        ok = [r for r in recs if not r["error"]]
+        n = len(ok)
+        k = sum(r["covered"] for r in ok)
+        low, high = wilson_interval(k, n)
+        var = np.array([r["var"] for r in ok]) / 1e6  # MPa^2 -> GPa^2
+        mean, se = var.mean(), var.std(ddof=1) / np.sqrt(n)
+        d_mean, d_se = (v / 1e6 for v in designed[subset])
+        diff = (d_mean - mean) / np.hypot(se, d_se)
+        worst = max(worst, abs(diff))
+        name = "".join(LETTERS[i] for i in subset)
+        failed = f" ({len(recs) - n} failed)" if len(recs) > n else ""
+        lines.append(
+            f"{name:<7}{n:>4}  {f'{k}/{n}':<8}{f'[{low:.2f}, {high:.2f}]':<15}"
+            f"{rms([r['z'] for r in ok]):>6.2f}  "
+            f"{f'{mean:.3g} ± {se:.2g}':<24}{f'{d_mean:.3g} ± {d_se:.2g}':<24}"
+            f"{diff:>+8.2f}{failed}"
+        )
+    lines.append("")
+    lines.append(
+        f"largest |designer - calibrator| / combined se: {worst:.2f} "
+        f"({n_seeds} seeds; A tip displacement, B energy, C tip rotation)"
+    )
+    return "\n".join(lines)
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--n-seeds", type=int, default=30)
+    parser.add_argument("--n-mc", type=int, default=100)
+    parser.add_argument("--n-jobs", type=int, default=1)
+    args = parser.parse_args(argv)
+    started = time.perf_counter()
+    designed, X_field = run_designer(args.n_mc, args.n_jobs)
+    designer_seconds = time.perf_counter() - started
+    results = Parallel(n_jobs=args.n_jobs, batch_size=1)(
+        delayed(one_seed)(seed, X_field) for seed in range(args.n_seeds)
+    )
+    records = [rec for result in results for rec in result]
+    print(table(records, designed, args.n_seeds))
+    print(
+        f"designer {designer_seconds:.0f} s (n_mc={args.n_mc}); total "
+        f"{time.perf_counter() - started:.0f} s, n_jobs={args.n_jobs}"
+    )
+
+
+if __name__ == "__main__":
+    main()
