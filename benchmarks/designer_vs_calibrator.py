@@ -25,7 +25,11 @@ same module-2 treatment, the default (``discrepancy_uncertainty=
 It prints per subset the calibrator's coverage (Wilson interval), rms z,
 mean posterior variance with its standard error over the seeds, the
 designer's expected variance with its standard error, and their difference
-in units of the combined standard error.
+in units of the combined standard error; then the distributions of the
+per-replicate posterior sd (median, 90 % quantile) of both, compared by a
+two-sample Kolmogorov-Smirnov test (the variances are heavy-tailed: a
+replicate with a large noise drawn from its log-uniform prior learns almost
+nothing, so the mean variance converges slowly).
 
 Usage::
 
@@ -44,6 +48,7 @@ from pathlib import Path
 import numpy as np
 import threadpoolctl
 from joblib import Parallel, delayed
+from scipy import stats
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
@@ -138,9 +143,17 @@ def run_designer(n_mc, n_jobs):
         ).fit(X, data.y_sim)
     prior_var = float(data.prior[0].var())
     expected = designer.preposterior_cov_[:, 0, 0]
-    se = designer.scores_mcse_ * prior_var  # one parameter: score = var ratio
-    moments = zip(expected, se, strict=True)
-    return dict(zip(designer.subsets_, moments, strict=True)), designer.X_design_
+    # One parameter: each score is a variance ratio, the running means of
+    # convergence_ give back every replicate's posterior variance.
+    se = designer.scores_mcse_ * prior_var
+    counts = np.arange(1, n_mc + 1)[:, None]
+    per_replicate = np.diff(designer.convergence_ * counts, axis=0, prepend=0.0)
+    per_replicate = per_replicate * prior_var
+    out = {
+        s: (expected[j], se[j], per_replicate[:, j])
+        for j, s in enumerate(designer.subsets_)
+    }
+    return out, designer.X_design_
 
 
 def table(records, designed, n_seeds):
@@ -160,7 +173,7 @@ def table(records, designed, n_seeds):
         low, high = wilson_interval(k, n)
         var = np.array([r["var"] for r in ok]) / 1e6  # MPa^2 -> GPa^2
         mean, se = var.mean(), var.std(ddof=1) / np.sqrt(n)
-        d_mean, d_se = (v / 1e6 for v in designed[subset])
+        d_mean, d_se = (v / 1e6 for v in designed[subset][:2])
         diff = (d_mean - mean) / np.hypot(se, d_se)
         worst = max(worst, abs(diff))
         name = "".join(LETTERS[i] for i in subset)
@@ -170,6 +183,23 @@ def table(records, designed, n_seeds):
             f"{rms([r['z'] for r in ok]):>6.2f}  "
             f"{f'{mean:.3g} ± {se:.2g}':<24}{f'{d_mean:.3g} ± {d_se:.2g}':<24}"
             f"{diff:>+8.2f}{failed}"
+        )
+    lines += [
+        "",
+        "posterior sd of E per replicate [GPa]: median and 90 % quantile, and "
+        "the two-sample KS p-value",
+        f"{'subset':<7}{'calibrator':<16}{'designer':<16}{'KS p':>6}",
+    ]
+    for subset, recs in by_subset.items():
+        sd_cal = np.sqrt([r["var"] for r in recs if not r["error"]]) / 1e3
+        sd_des = np.sqrt(np.clip(designed[subset][2], 0.0, None)) / 1e3
+        ks = stats.ks_2samp(sd_cal, sd_des).pvalue
+        name = "".join(LETTERS[i] for i in subset)
+        cal_q = np.quantile(sd_cal, [0.5, 0.9])
+        des_q = np.quantile(sd_des, [0.5, 0.9])
+        lines.append(
+            f"{name:<7}{f'{cal_q[0]:.2f}, {cal_q[1]:.2f}':<16}"
+            f"{f'{des_q[0]:.2f}, {des_q[1]:.2f}':<16}{ks:>6.2f}"
         )
     lines.append("")
     lines.append(

@@ -97,6 +97,7 @@ def posterior_moments(
     n_refine=24,
     max_refinements=4,
     seed=None,
+    return_rule=False,
 ):
     """Posterior mean and covariance of ``theta`` by two-stage quadrature.
 
@@ -117,6 +118,8 @@ def posterior_moments(
         weights stay concentrated on a few nodes.
     seed : int or None
         Seed of the stage-2 Sobol scrambling (several parameters).
+    return_rule : bool, default=False
+        Also return the posterior rule the moments come from.
 
     Returns
     -------
@@ -124,11 +127,17 @@ def posterior_moments(
     cov : ndarray of shape (r, r)
         Posterior moments; the prior's when the likelihood vanishes at every
         stage-1 node (no information).
+    rule : tuple of ndarray (k, r) and (k,)
+        Only with ``return_rule``: the nodes and posterior weights (summing
+        to one) of the last stage; the prior's rule when the likelihood
+        vanishes.
     """
     w = _normalised(np.log(weights) + log_lik_nodes)
     if w is None:
-        return prior.mean(), prior.cov()
+        out = prior.mean(), prior.cov()
+        return (*out, (nodes, weights / weights.sum())) if return_rule else out
     mean, cov = _moments(nodes, w)
+    rule_nodes = nodes
     r = nodes.shape[1]
     # Width floor: the spacing of the stage-1 nodes along each axis, so that
     # a posterior narrower than one node spacing is still bracketed.
@@ -155,6 +164,6 @@ def posterior_moments(
         )
         if w_new is None:
             break
-        w, (mean, cov) = w_new, _moments(x, w_new)
+        w, rule_nodes, (mean, cov) = w_new, x, _moments(x, w_new)
         floor = floor / 8.0
-    return mean, cov
+    return (mean, cov, (rule_nodes, w)) if return_rule else (mean, cov)

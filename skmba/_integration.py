@@ -193,7 +193,7 @@ def repair_psd(V):
     jitter = max(0.0, -smallest) + 1e-10 * scale
     if -smallest > 1e-8 * scale:
         warnings.warn(
-            "The prior-integrated emulator covariance was not positive "
+            "The integrated emulator covariance of module 2 was not positive "
             f"definite (smallest eigenvalue {smallest:.3g}); a jitter of "
             f"{jitter:.3g} was added. Consider another model kernel "
             "(Gauss, Exp) or more integration nodes.",
@@ -226,6 +226,19 @@ class IntegratedEmulator:
         return IntegratedEmulator(
             self.mean[:, list(responses)], self.cov[np.ix_(rows, rows)]
         )
+
+
+def integrate_over_rule(emulator, X_e, nodes, weights, *, n_jobs=None):
+    """Module 2a over a rule of standardised thetas, e.g. a posterior's.
+
+    The ``"total"`` moments (the spread of the emulator mean over the rule
+    included), repaired to be positive definite. The caller bounds the
+    memory: a posterior's rule has no more nodes than the prior's.
+    """
+    mean, corr, spread = integrate_emulator(
+        emulator, X_e, nodes, weights, n_jobs=n_jobs
+    )
+    return IntegratedEmulator(mean, repair_psd(np.kron(emulator.sigma2, corr) + spread))
 
 
 def integrate_over_prior(

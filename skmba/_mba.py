@@ -27,11 +27,9 @@ from skmba._hyperposterior import fit_hyperposterior
 from skmba._hyperprior import Hyperprior
 from skmba._identifiability import identifiability
 from skmba._integration import (
-    IntegratedEmulator,
-    integrate_emulator,
     integrate_over_prior,
+    integrate_over_rule,
     one_parameter_rule,
-    repair_psd,
 )
 from skmba._linalg import FEWER_FIELD_DATA, FLOAT_BYTES, check_memory, n_workers
 from skmba._mixture import ModelMixture
@@ -185,8 +183,11 @@ def run_modules(est, X, Y, sims, prior, ranges, seeds, progress):
         # Second pass: module 2 with theta integrated over the first pass's
         # posterior instead of the prior, a closer proposal for its draws.
         rule = module3["rule"]
-        integrated = _integrated(
-            emulator, Xs, scaler.theta(rule.thetas), rule.weights, est.n_jobs
+        # The rule of a posterior (41 quadrature nodes or 200 draws) has no
+        # more nodes than the prior's of the first pass, whose memory was
+        # checked.
+        integrated = integrate_over_rule(
+            emulator, Xs, scaler.theta(rule.thetas), rule.weights, n_jobs=est.n_jobs
         )
         disc, draws = _hyperposterior(
             est, Xs, Ys, integrated, ranges, seeds[4], progress, scaler, "2nd pass"
@@ -249,16 +250,6 @@ def _say_module2(progress, started, disc, scaler, how):
         ", discrepancy variances / simulated variances "
         f"{np.array2string(np.diag(disc.sigma2), precision=3)} ({how})"
     )
-
-
-def _integrated(emulator, Xs, nodes, weights, n_jobs):
-    """The emulator integrated over a rule of standardised thetas (total).
-
-    The rule of a posterior (41 quadrature nodes or 200 draws) has no more
-    nodes than the prior's of the first pass, whose memory was checked.
-    """
-    mean, corr, spread = integrate_emulator(emulator, Xs, nodes, weights, n_jobs=n_jobs)
-    return IntegratedEmulator(mean, repair_psd(np.kron(emulator.sigma2, corr) + spread))
 
 
 def _hyperposterior(est, Xs, Ys, integrated, prior, seed, progress, scaler, label):

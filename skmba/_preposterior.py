@@ -36,6 +36,7 @@ from skmba._discrepancy import TABLE_6_2_RANGES, check_interval, fit_discrepancy
 from skmba._hyperposterior import fit_hyperposterior
 from skmba._hyperprior import Hyperprior
 from skmba._importance import posterior_moments
+from skmba._integration import integrate_over_rule
 from skmba._progress import results_as_ready
 from skmba._regression import regression_basis
 from skmba._subset_likelihood import SubsetLikelihood
@@ -100,6 +101,7 @@ class Replicate:
         self.draws = None  # module-2 hyperposterior draws (propagate, fast)
         self.truth = None
         self.n_unconverged = 0
+        self.n_repaired = 0  # covariances of the second pass given a jitter
 
 
 def _mask(subset):
@@ -210,24 +212,48 @@ def _fit_module2(ctx, rep, responses):
 def _fit_module2_draws(ctx, rep, responses):
     """The module-2 hyperposterior draws of the responses (propagate).
 
-    The calibrator's :func:`~skmba._hyperposterior.fit_hyperposterior` on
-    the replicate's data, with the emulator integrated over the prior of
-    theta, and the hyperprior restricted to ``responses``.
+    As the calibrator's default: the hyperposterior
+    (:func:`~skmba._hyperposterior.fit_hyperposterior`, the hyperprior
+    restricted to ``responses``) with the emulator integrated over the prior
+    of theta; then, a second pass, again with the emulator integrated over
+    the first pass's posterior of theta from these responses.
     """
     idx = list(responses)
-    integrated = ctx.integrated.restrict(idx)
     prior = replace(ctx.hyperprior, sd_scale=ctx.hyperprior.scales(ctx.q)[idx])
-    return fit_hyperposterior(
-        ctx.Xs,
-        rep.Y_e[:, idx] - integrated.mean,
-        integrated.cov,
-        prior=prior,
-        kernel=ctx.module2["kernel"],
-        regression=ctx.module2["regression"],
-        noise=ctx.module2["noise"],
-        n_restarts=ctx.module2["n_restarts"],
-        random_state=np.random.SeedSequence([rep.seed, 1, _mask(idx)]),
+    first, second, moments = np.random.SeedSequence([rep.seed, 1, _mask(idx)]).spawn(3)
+
+    def hyperposterior(integrated, seed):
+        return fit_hyperposterior(
+            ctx.Xs,
+            rep.Y_e[:, idx] - integrated.mean,
+            integrated.cov,
+            prior=prior,
+            kernel=ctx.module2["kernel"],
+            regression=ctx.module2["regression"],
+            noise=ctx.module2["noise"],
+            n_restarts=ctx.module2["n_restarts"],
+            random_state=seed,
+        )
+
+    draws = hyperposterior(ctx.integrated.restrict(idx), first)
+    likes, log_w = _likelihoods(ctx, rep, idx, draws)
+    *_, (nodes, weights) = posterior_moments(
+        lambda thetas: _mixed(likes, log_w, ctx.design.pieces(ctx.std_theta(thetas))),
+        ctx.prior,
+        ctx.nodes,
+        ctx.weights,
+        _mixed(likes, log_w, ctx.pieces),
+        seed=int_seed(moments),
+        return_rule=True,
     )
+    keep = weights > 0
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", UserWarning)
+        integrated = integrate_over_rule(
+            ctx.emulator, ctx.Xs, ctx.std_theta(nodes[keep]), weights[keep]
+        )
+    rep.n_repaired += len(caught)  # reported once by the designer (phase 1)
+    return hyperposterior(integrated.restrict(idx), second)
 
 
 def _embedded(sigma2_d, noise, subset, q):
@@ -245,26 +271,42 @@ def _subset_likelihoods(ctx, rep, subset):
     One likelihood with module 2 plugged in, or one per hyperposterior draw
     (propagate), mixed with the draws' importance weights.
     """
-    idx = list(subset)
     if ctx.hyperprior is not None:
         draws = rep.draws if ctx.fast else _fit_module2_draws(ctx, rep, subset)
-        pieces = [(c.kernel_, c.sigma2, c.noise) for c in draws.components]
-        log_weights = draws.log_weights
     elif ctx.fast:
-        pieces, log_weights = [(rep.kernel_d, rep.sigma2_d, rep.noise)], np.zeros(1)
+        draws = _PlugIn(rep.kernel_d, rep.sigma2_d, rep.noise)
     else:
         disc = _fit_module2(ctx, rep, subset)
-        pieces, log_weights = [(disc.kernel_, disc.sigma2, disc.noise)], np.zeros(1)
+        draws = _PlugIn(disc.kernel_, disc.sigma2, disc.noise)
+    return _likelihoods(ctx, rep, list(subset), draws)
+
+
+class _PlugIn:
+    """Module 2's estimates as a single draw of weight one."""
+
+    def __init__(self, kernel_, sigma2, noise):
+        self.components = [self]
+        self.log_weights = np.zeros(1)
+        self.kernel_, self.sigma2, self.noise = kernel_, sigma2, noise
+
+
+def _likelihoods(ctx, rep, idx, draws):
+    """One :class:`SubsetLikelihood` per draw of module 2, and the log weights.
+
+    A draw fitted on the subset alone (``q_S x q_S``) is embedded in the
+    ``q x q`` arrays the likelihood restricts.
+    """
     likes = []
-    for kernel_d, sigma2_d, noise in pieces:
-        if not ctx.fast:  # the fit is of the subset alone
+    for c in draws.components:
+        sigma2_d, noise = c.sigma2, c.noise
+        if len(sigma2_d) != ctx.q:
             sigma2_d, noise = _embedded(sigma2_d, noise, idx, ctx.q)
         likes.append(
             SubsetLikelihood(
-                ctx.design, idx, rep.Y_e, kernel_d(ctx.Xs), ctx.H_d, sigma2_d, noise
+                ctx.design, idx, rep.Y_e, c.kernel_(ctx.Xs), ctx.H_d, sigma2_d, noise
             )
         )
-    return likes, log_weights
+    return likes, draws.log_weights
 
 
 def _mixed(likes, log_weights, pieces):

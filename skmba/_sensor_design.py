@@ -458,6 +458,16 @@ class PreposteriorDesigner(BaseEstimator):
                 ConvergenceWarning,
                 stacklevel=3,
             )
+        repaired = sum(rep.n_repaired for rep in replicates)
+        if repaired:
+            warnings.warn(
+                f"{repaired} posterior-integrated emulator covariances of the "
+                "second module-2 pass (discrepancy_uncertainty='propagate') "
+                "were not positive definite and got a jitter, usually a "
+                "round-off effect of a narrow posterior of theta.",
+                UserWarning,
+                stacklevel=3,
+            )
         self._log(f"done: best subset {self.best_subset_}", started)
         return self
 

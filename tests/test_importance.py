@@ -41,6 +41,30 @@ def test_two_correlated_parameters():
     np.testing.assert_allclose(cov, C, rtol=0.05, atol=0.02 * 0.0025)
 
 
+@pytest.mark.parametrize("sd", [3.0, 0.005])
+def test_rule_returned_is_the_one_of_the_moments(sd):
+    """return_rule: the nodes and weights whose moments are returned, for a
+    wide posterior (stage 1, the prior's nodes) and a narrow one (stage 2)."""
+    prior = check_prior([stats.uniform(-5, 10)])
+    nodes, weights = prior.integration_nodes(33)
+
+    def log_lik(t):
+        return -0.5 * ((t[:, 0] - 1.234) / sd) ** 2
+
+    mean, cov, (x, w) = posterior_moments(
+        log_lik, prior, nodes, weights, log_lik(nodes), return_rule=True
+    )
+    assert w.sum() == pytest.approx(1.0) and np.all(w >= 0)
+    assert (x is nodes) == (sd == 3.0)
+    np.testing.assert_allclose(w @ x, mean, rtol=1e-12)
+    np.testing.assert_allclose(w @ (x - mean) ** 2, cov[0], rtol=1e-10)
+    vanishing = np.full(len(nodes), -np.inf)
+    *_, (x, w) = posterior_moments(
+        None, prior, nodes, weights, vanishing, return_rule=True
+    )
+    assert x is nodes and w == pytest.approx(weights / weights.sum())
+
+
 def test_flat_or_vanishing_likelihood_returns_the_prior():
     prior = check_prior([stats.uniform(2, 4)])
     nodes, weights = prior.integration_nodes(33)
