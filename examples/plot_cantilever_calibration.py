@@ -60,32 +60,41 @@ print(f"relative error:      {E_mean / E_true - 1:+8.2%}")
 print(f"95 % interval:       [{low:.0f}, {high:.0f}] MPa")
 print(f"posterior std:       {np.sqrt(cal.theta_cov_[0, 0]):8.0f} MPa")
 
+print(f"identifiability_:    {cal.identifiability_[0]:.2g}")
+
 # %%
-# The posterior mean of E is 2.5 % below E*, with a posterior standard
-# deviation of 2.3 GPa (3.3 % of E*), and E* lies inside the 95 % credible
-# interval. The thesis reports 70302 ± 6915 MPa.
+# The posterior mean of E is 3.1 % below E*, with a posterior standard
+# deviation of 114 MPa, and E* lies far outside the 95 % credible interval.
+# ``fit`` said so beforehand: it raised a
+# :class:`~skmba.exceptions.NonIdentifiabilityWarning` for E
+# (``identifiability_`` 0.0008, far below the threshold of 1/3). The thesis
+# reports 70302 ± 6915 MPa.
 #
-# The mean sits below E*, between E* and the effective modulus printed
-# below, for a physical reason. For a tip load the spring
-# adds the same fraction ``3 E* I / (K* L)`` to the tip displacement and to
-# the energy of the model, so the data are explained exactly by a
-# fixed-support beam with the *effective* modulus
-# ``E* / (1 + 3 E* I / (K* L))`` and no discrepancy at all. Both responses
-# say the same thing about E: the data alone cannot tell the spring from a
-# softer beam.
+# The posterior sits on the effective modulus printed below, for a physical
+# reason. For a tip load the spring adds the same fraction
+# ``3 E* I / (K* L)`` to the tip displacement and to the energy of the
+# model, so the data are explained exactly by a fixed-support beam with the
+# *effective* modulus ``E* / (1 + 3 E* I / (K* L))`` and no discrepancy at
+# all. Both responses say the same thing about E: the data alone cannot
+# tell the spring from a softer beam, and the fitted discrepancy is
+# negligible (its variances below, relative to the simulated ones).
 #
-# What keeps the posterior from collapsing on the effective modulus is the
-# calibrator's ``discrepancy_prior``. Its default, the ranges of thesis
-# Table 6.2, keeps the variance of each response's discrepancy at or above
-# 1 % of the response's variance over the simulations: a prior statement
-# that the idealised model is not exact. Here the fitted variances sit at
-# that lower end, and the width of the posterior follows from it. With
-# ``discrepancy_prior={"variance": None}`` (the plain maximum likelihood)
-# the discrepancy vanishes and, on these data, E is pinned at 67846 MPa
-# with a standard deviation of 31 MPa: E* is some 70 standard deviations
-# away. A calibration that treats the idealised model as exact is
-# overconfident (Brynjarsdottir and O'Hagan, 2014, *Learning about physical
-# parameters: the importance of model discrepancy*, Inverse Problems 30).
+# What the calibrator can and does do is say so. ``identifiability_``
+# compares the posterior spread of E without a discrepancy with the spread
+# it would have with a discrepancy of plausible size (the 95 % point of its
+# prior): here a smooth discrepancy could mimic any change of E on these two
+# responses, so the interval rests on the prior of the discrepancy rather
+# than on the data, and it can miss E* whenever the model error is of this
+# kind (see :ref:`module-2-uncertainty`). No default can make it right:
+# the thesis' plug-in with the Table 6.2 floor on the discrepancy variance
+# (``discrepancy_uncertainty="plug-in"``) gives 68242 ± 2298 MPa on these
+# data, an interval that covers E* only because of the floor, which makes
+# the intervals 2-3 times too wide where E is identifiable. What identifies
+# E is another response that the spring affects differently (the tip
+# rotation, a displacement along the span: thesis section 6.3, sensor
+# design), or prior information on E (Brynjarsdottir and O'Hagan, 2014,
+# *Learning about physical parameters: the importance of model
+# discrepancy*, Inverse Problems 30).
 
 L, I, K = 3000.0, 6.75e8, 1.5e12
 E_effective = E_true / (1 + 3 * E_true * I / (K * L))
@@ -97,11 +106,10 @@ print("discrepancy variance / simulated variance:", variance.round(4))
 # Posterior, prior and truth
 # --------------------------
 # The posterior (histogram) against the prior, flat over 20-100 GPa, and
-# the truth. The posterior spans about a tenth of the prior's range, so
-# ``limits="auto"`` shows the prior's whole range (it zooms in only on
-# posteriors narrower than 5 % of it). We add the effective modulus as a
-# reference line: E* and the effective modulus both lie inside the 95 %
-# interval.
+# the truth. The posterior spans well under 5 % of the prior's range, so
+# ``limits="auto"`` zooms in on it, out to the truth. We add the effective
+# modulus as a reference line: the posterior centres on it, and E* lies some
+# 19 posterior standard deviations above.
 
 fig = plot_posterior(cal, true_value=data.theta_true, names=["E"], units=["MPa"])
 ax = fig.axes[0]
@@ -142,11 +150,10 @@ plt.show()
 # %%
 # The calibrated prediction (right) follows the real beam closely, with a
 # narrow band: for *prediction* the confounding is harmless, because a
-# softer model reproduces the real responses. The mean of the learned
-# discrepancy (centre) stays close to zero, whereas the true one grows with
-# F: most of it has gone into E. Its 95 % band, set by the discrepancy
-# variance at the lower end of its range, widens with F and contains the
-# true discrepancy; the model's band (left) is correspondingly wide. To
-# tell the spring from the modulus, one needs a response that the spring
-# affects differently, such as the tip rotation or a displacement along the
-# span (thesis section 6.3, sensor design).
+# softer model reproduces the real responses. The learned discrepancy
+# (centre) stays at zero, with a band that widens away from the data,
+# whereas the true one grows with F: all of it has gone into E, which is
+# what the warning announced. To tell the spring from the modulus, one
+# needs a response that the spring affects differently, such as the tip
+# rotation or a displacement along the span (thesis section 6.3, sensor
+# design).

@@ -51,16 +51,15 @@ print(
 
 # %%
 # The data override the prior: the prior put the truth two standard
-# deviations away, the posterior mean is 67353 MPa, 3.8 % below E*, and E*
-# lies inside the 95 % interval. The spring at the support is confounded
-# with E (see the single-parameter example), which alone would put E at the
-# effective modulus, 67862 MPa; the prior pulls a little further down: with
-# the uniform prior on the same data, the single-parameter example finds
-# 68242 MPa. The posterior standard deviation, 2.2 GPa, is set mainly by the
-# lower end of the discrepancy variance in the calibrator's default
-# ``discrepancy_prior`` and is 4.6 times smaller than the prior's 10 GPa, so
-# we draw the posterior twice: over the prior's range, where its peak is
-# cut off to keep the prior visible, and zoomed.
+# deviations away, and the posterior mean is 67837 MPa, the effective
+# modulus (67862 MPa) of the single-parameter example. The spring at the
+# support is confounded with E there and here (``fit`` raises a
+# :class:`~skmba.exceptions.NonIdentifiabilityWarning`), so the data fix the
+# effective modulus and E* lies outside the 95 % interval: with these two
+# responses only a prior that already knew E could place it. The posterior
+# standard deviation, about 125 MPa, is some 80 times smaller than the
+# prior's 10 GPa, so we draw the posterior twice: over the prior's range,
+# where its peak is cut off to keep the prior visible, and zoomed.
 
 fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), layout="constrained")
 for ax, limits, title in zip(
@@ -129,21 +128,19 @@ print("posterior covariance:\n", np.array2string(cal2.theta_cov_, precision=3))
 # prior decides. The posterior settles where the ridge ``E I ≈ const``
 # passes through high prior density. Both prior means are too low, and E
 # has the larger relative prior spread (19 % against 14 % for I), so E
-# moves further from its prior mean than I does (by 38 % against 26 %): E
-# ends 4 % above its truth and I 12 % below, both truths inside their 95 %
+# moves further from its prior mean than I does (by 40 % against 31 %): E
+# ends 6 % above its truth and I 8.5 % below, both truths inside their 95 %
 # intervals.
 #
-# EI is less accurate than with the uniform priors of the two-parameter
-# example. Its posterior CV is similar (5.9 % against 6.7 %), but its mean
-# is 8.5 % below E* I*, more than the 3 % of the spring, and 93 % of the
-# draws lie below E* I*. The data leave EI a spread of several percent (the
-# discrepancy variance sits at the lower end of its default range, as in
-# the other examples), and within it the prior, whose means give an EI of
-# 2.5e13 N·mm², about half the truth, pulls EI down. E* I* still lies
-# inside the 95 % interval of EI. The correlation of E and I, -0.70, is
-# weaker than the -0.94 under uniform priors: the Gaussian priors shorten
-# the ridge (posterior CVs of E and I of 7.7 % and 7.6 %, against 24 % and
-# 22 %), so the spread across it counts for more.
+# EI itself is where the uniform priors of the two-parameter example put
+# it: at the effective stiffness of the spring-supported beam (mean
+# 4.574e13 N·mm², 3.2 % below E* I*, which lies outside its 95 % interval),
+# with a posterior CV of about 0.9 %. The prior, whose means give an EI of
+# 2.5e13 N·mm², about half the truth, has no pull left on it: the data fix
+# the effective stiffness, and ``fit`` warns that the spring cannot be told
+# from a softer beam. The correlation of E and I, -0.985, is as strong as
+# under uniform priors, while the Gaussian priors shorten the ridge
+# (posterior CVs of E and I of 5.7 % and 5.5 %, against 20 % and 17 %).
 
 fig = plot_posterior(
     cal2,
@@ -162,9 +159,9 @@ plt.show()
 
 # %%
 # The prior densities (orange) sit away from the truth (dashed) and the
-# posterior histograms far from the priors, E's around its truth and I's
-# mostly below it; the cloud of draws lies mostly below the curve of the
-# true stiffness, on the side of the prior mean. A measurement that
-# separates E from I, or a better prior, would move the posterior onto the
-# truth; more displacement and energy data would only sharpen the ridge,
-# down to the width that the discrepancy leaves.
+# posterior histograms far from the priors, E's above its truth and I's
+# below it; the cloud of draws lies just below the curve of the true
+# stiffness, along the effective one. A measurement that separates E from I
+# and the spring from both, or a better prior, would move the posterior
+# onto the truth; more displacement and energy data would only sharpen the
+# ridge around the effective stiffness.

@@ -174,13 +174,17 @@ def one_parameter_rule(name, value, r, *, one="quadrature", several):
     return value
 
 
-def repair_psd(V):
+def repair_psd(V, magnitude=None):
     """Symmetrise; add the smallest jitter that makes V positive definite.
 
     The integrated covariance is positive semi-definite in exact
     arithmetic; round-off (or a kernel that is not positive definite)
     can break that. The jitter is ``max(0, -lambda_min) + 1e-10 * mean
-    variance`` on the diagonal, with a warning when it exceeds round-off.
+    variance`` on the diagonal, with a warning when it exceeds round-off:
+    ``1e-8`` times ``magnitude``, the size of the terms whose difference
+    ``V`` is (the emulator's prior variance: over a narrow posterior the
+    integrated covariance is far smaller than the terms it cancels), by
+    default the mean variance of ``V``.
 
     Examples
     --------
@@ -191,7 +195,7 @@ def repair_psd(V):
     smallest = np.linalg.eigvalsh(V)[0]
     scale = np.trace(V) / len(V)
     jitter = max(0.0, -smallest) + 1e-10 * scale
-    if -smallest > 1e-8 * scale:
+    if -smallest > 1e-8 * (scale if magnitude is None else max(magnitude, scale)):
         warnings.warn(
             "The integrated emulator covariance of module 2 was not positive "
             f"definite (smallest eigenvalue {smallest:.3g}); a jitter of "
@@ -238,7 +242,8 @@ def integrate_over_rule(emulator, X_e, nodes, weights, *, n_jobs=None):
     mean, corr, spread = integrate_emulator(
         emulator, X_e, nodes, weights, n_jobs=n_jobs
     )
-    return IntegratedEmulator(mean, repair_psd(np.kron(emulator.sigma2, corr) + spread))
+    V = np.kron(emulator.sigma2, corr) + spread
+    return IntegratedEmulator(mean, repair_psd(V, np.max(np.diag(emulator.sigma2))))
 
 
 def integrate_over_prior(

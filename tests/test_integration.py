@@ -5,6 +5,8 @@ theta, the integrals of the cross-correlations in Eqs. 4.14 and 4.17 have
 closed forms; the numerical rule (prior-quantile Gauss-Legendre) must match.
 """
 
+import warnings
+
 import numpy as np
 import pytest
 from scipy import special, stats
@@ -148,3 +150,18 @@ def test_repair_psd_adds_the_smallest_jitter_and_warns():
         fixed = repair_psd(V)
     assert np.linalg.eigvalsh(fixed)[0] > 0
     np.testing.assert_allclose(fixed, V + np.eye(2) * (fixed[0, 0] - 1.0))
+
+
+def test_repair_psd_measures_round_off_against_the_cancelled_terms():
+    """A covariance far smaller than the terms it is the difference of
+    (the emulator integrated over a narrow posterior) is repaired without a
+    warning when its negative eigenvalue is round-off of those terms."""
+    V = 1e-7 * np.array([[1.0, 1.0], [1.0, 1.0 - 1e-5]])  # eigenvalue ~ -5e-13
+    with pytest.warns(UserWarning, match="not positive definite"):
+        repair_psd(V)  # against its own mean variance, 1e-7: not round-off
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        fixed = repair_psd(V, magnitude=1.0)  # against terms of size 1: it is
+    assert np.linalg.eigvalsh(fixed)[0] > 0
+    with pytest.warns(UserWarning, match="not positive definite"):
+        repair_psd(V * 1e7 * [[1.0, 1.0], [1.0, 0.999]], magnitude=1.0)
