@@ -43,7 +43,8 @@ for snr in snr_levels:
     )
     results.append((data, cal))
 print(
-    "identifiability_ of E:", [round(cal.identifiability_[0], 4) for _, cal in results]
+    "identifiability_ of E:",
+    ", ".join(f"{cal.identifiability_[0]:.3f}" for _, cal in results),
 )
 
 E_true = data.theta_true[0]
