@@ -47,6 +47,7 @@ from skmba._prediction import PredictionRule, predict_component
 from skmba._progress import Progress
 from skmba._regression import REGRESSIONS
 from skmba._simulations import (
+    check_response_ranges,
     check_simulation_design,
     check_simulator_runs,
     given_simulations,
@@ -443,6 +444,7 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
                 f"{prior.dim} parameters."
             )
         check_simulation_design(X, prior, sims)
+        check_response_ranges(Y, sims.y)
         return dict(
             X=X,
             y=Y[:, 0] if np.ndim(y) == 1 else Y,

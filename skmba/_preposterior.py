@@ -18,7 +18,7 @@ Examples
 >>> import numpy as np
 >>> from skmba._preposterior import criterion_value
 >>> criterion_value(np.diag([1.0, 4.0]), np.array([1.0, 2.0]), "trace")
-2.0
+1.0
 """
 
 import time
@@ -57,10 +57,14 @@ DEFAULT_NOISE_PRIOR = (0.0, 1e-4)
 
 
 def criterion_value(cov, prior_sd, criterion):
-    """Norm of a covariance scaled by the prior's standard deviations."""
+    """Norm of a covariance scaled by the prior's standard deviations.
+
+    Each norm is 1 at the prior's own covariance, for any number of
+    parameters: the trace is divided by ``r`` (the mean variance ratio).
+    """
     scaled = cov / np.outer(prior_sd, prior_sd)
     if criterion == "trace":
-        return float(np.trace(scaled))
+        return float(np.trace(scaled)) / len(scaled)
     if criterion == "det":
         r = len(scaled)
         return float(max(np.linalg.det(scaled), 0.0) ** (1.0 / r))

@@ -170,9 +170,10 @@ class PreposteriorDesigner(BaseEstimator):
         Norm of the preposterior covariance after scaling each parameter by
         its prior standard deviation, so that parameters of different units
         are comparable and a score of 1 means "no better than the prior":
-        the trace (sum of variance ratios), the determinant to the power
-        ``1/r`` (geometric mean) or the largest eigenvalue. For one parameter
-        all three are the posterior-to-prior variance ratio.
+        the trace over ``r`` (the mean of the variance ratios), the
+        determinant to the power ``1/r`` (geometric mean) or the largest
+        eigenvalue: each is 1 at the prior. For one parameter all three are
+        the posterior-to-prior variance ratio.
     fast : bool, default=True
         Estimate the discrepancy hyperparameters once per replicate with all
         responses and reuse them, restricted, for every subset (phase 1 /

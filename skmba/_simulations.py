@@ -231,15 +231,85 @@ def given_simulations(X, q, X_sim, theta_sim, y_sim):
     return SimulationData(X_sim, theta_sim, y_sim)
 
 
+#: Runs per emulator input below which a design is called small: the rule
+#: of thumb of Loeppky, Sacks and Welch (2009), "Choosing the sample size of
+#: a computer experiment: a practical guide", Technometrics 51(4), 366-376.
+RUNS_PER_INPUT = 10
+
+
 def check_design_size(n_total, regression, k):
-    """Enough runs for an emulator on ``k`` inputs with ``regression``."""
+    """Enough runs for an emulator on ``k`` inputs with ``regression``.
+
+    An error below what the regression needs; a warning below
+    :data:`RUNS_PER_INPUT` runs per input.
+    """
     needed = max(3, n_regression_terms(regression, k) + 1)
     if n_total and n_total < needed:
         raise ValueError(
             f"{n_total} simulations are too few to fit an emulator: "
             f"regression={regression!r} on d + r = {k} inputs needs at "
-            f"least {needed}; provide about 10 per input ({10 * k}) with "
-            "n_simulations or X_sim, theta_sim and y_sim."
+            f"least {needed}; provide about {RUNS_PER_INPUT} per input "
+            f"({RUNS_PER_INPUT * k}) with n_simulations or X_sim, theta_sim "
+            "and y_sim."
+        )
+    if n_total and n_total < RUNS_PER_INPUT * k:
+        warnings.warn(
+            f"{n_total} simulations for d + r = {k} emulator inputs are fewer "
+            f"than the rule of thumb of {RUNS_PER_INPUT} per input "
+            f"({RUNS_PER_INPUT * k}; Loeppky, Sacks and Welch 2009): the "
+            "emulator, and the calibration with it, may be poor. Run more "
+            "simulations (n_simulations, or more rows of X_sim, theta_sim "
+            "and y_sim).",
+            UserWarning,
+            stacklevel=5,
+        )
+
+
+#: Observations whose median lies farther outside the simulated range of
+#: their response than this many times the range's width are suspicious.
+RESPONSE_RANGE_FACTOR = 1.0
+
+
+def check_response_ranges(y, y_sim):
+    """Warn when a response's observations lie far outside its simulations.
+
+    The usual cause is a unit mismatch (mm against m, kN against N): the
+    discrepancy would otherwise absorb a factor of 1000 without a word.
+    A response is suspicious when the median of its (finite) observations
+    lies outside the range of its simulations by more than
+    :data:`RESPONSE_RANGE_FACTOR` times that range's width.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> y_sim = np.linspace(0.0, 2.0, 20)[:, None]
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     check_response_ranges(1000 * y_sim[::2], y_sim)
+    >>> "unit mismatch" in str(caught[0].message)
+    True
+    """
+    lo, hi = np.nanmin(y_sim, axis=0), np.nanmax(y_sim, axis=0)
+    width = hi - lo
+    for j in range(y_sim.shape[1]):
+        obs = y[:, j][np.isfinite(y[:, j])]
+        if not obs.size or width[j] <= 0:
+            continue
+        median = float(np.median(obs))
+        excess = max(lo[j] - median, median - hi[j], 0.0) / width[j]
+        if excess <= RESPONSE_RANGE_FACTOR:
+            continue
+        typical_sim = float(np.median(np.abs(y_sim[:, j])))
+        ratio = abs(median) / typical_sim if typical_sim > 0 else np.inf
+        name = "the response" if y_sim.shape[1] == 1 else f"response {j}"
+        warnings.warn(
+            f"The observations of {name} (column {j} of y) lie far outside "
+            f"the range of its simulations [{lo[j]:.4g}, {hi[j]:.4g}]: their "
+            f"median {median:.4g} is {ratio:.3g} times the simulations' typical "
+            "size. A unit mismatch (mm against m, kN against N) is the usual "
+            "cause; check the units of y against y_sim or the simulator.",
+            UserWarning,
+            stacklevel=4,
         )
 
 

@@ -578,6 +578,22 @@ BAD_INPUT = [
         X=BAD.X_obs * 2.0,
     ),
     case(
+        "units-mix-up",
+        UserWarning,
+        r"The observations of response 1 \(column 1 of y\) lie far outside the "
+        r"range of its simulations .*: their median .* is \d+ times the "
+        r"simulations' typical size. A unit mismatch "
+        r"\(mm against m, kN against N\) is the usual cause",
+        y=BAD.y_obs * [1.0, 1000.0],
+    ),
+    case(
+        "small-design",
+        UserWarning,
+        r"15 simulations for d \+ r = 2 emulator inputs are fewer than the rule "
+        r"of thumb of 10 per input \(20; Loeppky, Sacks and Welch 2009\)",
+        sims=first_rows(15),
+    ),
+    case(
         "no-prior-with-a-simulator",
         ValueError,
         r"prior is required when the simulations are run by the simulator",
