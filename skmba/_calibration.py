@@ -102,9 +102,11 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
     n_simulations : int, default=None
         Runs of ``simulator`` (default ``10 * (d + r)``).
     model_kernel, discrepancy_kernel : sklearn Kernel, default=None
-        Correlations of the emulator and of the discrepancy (unit diagonal).
-        None: anisotropic :class:`~skmba.kernels.Gauss` scaled to the data.
-        They act on standardised inputs.
+        Correlations of the emulator and of the discrepancy (unit diagonal,
+        checked: ``ConstantKernel(2.0) * RBF()`` is an error, the variances
+        are estimated separately). None: anisotropic
+        :class:`~skmba.kernels.Gauss` scaled to the data. They act on
+        standardised inputs; scikit-learn kernels keep their own bounds.
     regression, discrepancy_regression : {"constant", "linear", "quadratic"}
         Mean bases of the emulator and of the discrepancy.
     noise : bool, default=True
@@ -424,9 +426,9 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         X = X.astype(float)
         warn_few_distinct_inputs(X, self.discrepancy_regression)
         Y = np.asarray(y, dtype=float).reshape(len(X), -1)
-        d, q = X.shape[1], Y.shape[1]
+        q = Y.shape[1]
         # Before any simulation runs: a bad range must not waste them.
-        ranges = module2_prior(self, d, q)
+        ranges = module2_prior(self, X, q)
         # One child of the seed per random step: the simulation design, then
         # modules 1, 2a, 2b and 3.
         seeds = [int_seed(c) for c in seed_sequence(self.random_state).spawn(7)]

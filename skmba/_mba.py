@@ -44,6 +44,7 @@ from skmba._priors import check_prior
 from skmba._regression import n_regression_terms
 from skmba._simulations import check_design_size, collect_simulations
 from skmba._summary import parameter_names
+from skmba.kernels import check_correlation
 
 #: Module-2 treatments: the hyperparameters integrated out of module 3
 #: (default), or the thesis' plug-in of their estimate.
@@ -82,13 +83,30 @@ def check_global_memory(N, n, q, P, jobs, draws=1):
     )
 
 
-def module2_prior(est, d, q):
-    """The module-2 prior of the estimator: a Hyperprior, or plug-in ranges."""
+def module2_prior(est, X, q):
+    """The module-2 prior of the estimator: a Hyperprior, or plug-in ranges.
+
+    Checked before any simulation runs, with the discrepancy kernel: it must
+    be a correlation (unit diagonal on the field inputs ``X``). Under the
+    plug-in, a kernel without a ``roughness`` (a scikit-learn kernel) keeps
+    its own bounds unless a roughness range is given explicitly.
+    """
+    if est.discrepancy_kernel is not None:
+        check_correlation(est.discrepancy_kernel, X, name="discrepancy_kernel")
     if est.discrepancy_uncertainty == "propagate":
         prior = Hyperprior.from_spec(est.discrepancy_prior)
         prior.scales(q)  # one sd_scale per response, or one for all
         return prior
-    return check_discrepancy_ranges(est.discrepancy_prior, d, q)
+    ranges = check_discrepancy_ranges(est.discrepancy_prior, X.shape[1], q)
+    given = est.discrepancy_prior or {}
+    kernel = est.discrepancy_kernel
+    if (
+        "roughness" not in given
+        and kernel is not None
+        and "roughness" not in kernel.get_params()
+    ):
+        ranges["roughness"] = None
+    return ranges
 
 
 def simulations_for(est, X, q, prior, given, seed, progress):

@@ -568,7 +568,7 @@ class Spline(_DACECorrelation):
         return np.where(zeta <= 0.2, inner, outer)
 
 
-def check_correlation(kernel, X):
+def check_correlation(kernel, X, name="kernel"):
     """Check that ``kernel`` is a correlation (unit diagonal) on ``X``.
 
     ``MultiResponseGP`` estimates the process variances itself (``sigma2_``)
@@ -584,6 +584,8 @@ def check_correlation(kernel, X):
         Kernel to check.
     X : array-like of shape (n_samples, n_features)
         Points at which the diagonal is evaluated.
+    name : str, default="kernel"
+        The parameter's name in the messages.
 
     Returns
     -------
@@ -610,18 +612,18 @@ def check_correlation(kernel, X):
     """
     if not isinstance(kernel, Kernel):
         raise TypeError(
-            "kernel must be an instance of sklearn.gaussian_process.kernels."
+            f"{name} must be an instance of sklearn.gaussian_process.kernels."
             f"Kernel, got {type(kernel).__name__}."
         )
     X = np.atleast_2d(np.asarray(X, dtype=float))
     diag = np.asarray(kernel.diag(X), dtype=float)
     if diag.size and not np.all(np.abs(diag - 1.0) <= 1e-8):
         raise ValueError(
-            "The kernel must be a correlation with unit diagonal "
+            f"The {name} must be a correlation with unit diagonal "
             f"(kernel.diag(X) == 1), but {kernel!r} has diagonal values in "
             f"[{np.min(diag):.6g}, {np.max(diag):.6g}]. Remove ConstantKernel "
             "or WhiteKernel factors/terms (e.g. pass RBF() instead of "
-            "ConstantKernel(2.0) * RBF()): MultiResponseGP estimates the "
-            "variances itself in sigma2_ and per-response noise through "
-            "noise=True."
+            "ConstantKernel(2.0) * RBF()): skmba estimates the variances "
+            "itself (MultiResponseGP's sigma2_, the calibrator's discrepancy "
+            "covariance) and the per-response noise (noise=True)."
         )

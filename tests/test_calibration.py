@@ -17,7 +17,7 @@ from integration._helpers import fit, relative_error
 from scipy import stats
 from sklearn.base import clone
 from sklearn.exceptions import ConvergenceWarning
-from sklearn.gaussian_process.kernels import RBF
+from sklearn.gaussian_process.kernels import RBF, ConstantKernel
 
 import skmba._discrepancy as discrepancy_module
 import skmba._integration as integration_module
@@ -460,7 +460,11 @@ BAD_INPUT = [
         TypeError,
         r"discrepancy_prior\['roughness'\] needs a discrepancy kernel with a "
         r"'roughness' hyperparameter",
-        params=dict(discrepancy_uncertainty=PLUG_IN, discrepancy_kernel=RBF()),
+        params=dict(
+            discrepancy_uncertainty=PLUG_IN,
+            discrepancy_kernel=RBF(),
+            discrepancy_prior={"roughness": (0.1, 9.0)},  # explicit: needs one
+        ),
     ),
     case(
         "quadrature-integration-two-parameters",
@@ -592,6 +596,19 @@ BAD_INPUT = [
         r"15 simulations for d \+ r = 2 emulator inputs are fewer than the rule "
         r"of thumb of 10 per input \(20; Loeppky, Sacks and Welch 2009\)",
         sims=first_rows(15),
+    ),
+    *(
+        case(
+            f"scaled-discrepancy-kernel-{treatment}",
+            ValueError,
+            r"The discrepancy_kernel must be a correlation with unit diagonal .* "
+            r"in \[2, 2\]. Remove ConstantKernel",
+            params=dict(
+                discrepancy_kernel=ConstantKernel(2.0) * RBF(),
+                discrepancy_uncertainty=treatment,
+            ),
+        )
+        for treatment in ("propagate", PLUG_IN)
     ),
     case(
         "no-prior-with-a-simulator",
@@ -1074,3 +1091,23 @@ def test_module2_treatments():
         (theta - default.theta_offset_) / default.theta_scale_
     )
     assert default.log_posterior(theta) == pytest.approx(expected, rel=1e-12)
+
+
+@pytest.mark.parametrize("treatment", ["propagate", PLUG_IN])
+def test_sklearn_kernel_as_discrepancy_kernel_needs_no_extra_settings(treatment):
+    """A scikit-learn correlation keeps its own bounds under either
+    treatment (Table 6.2's roughness range is for the kernels of
+    skmba.kernels), and is fitted: its length scale moves from the start."""
+    cal = ModularBayesCalibrator(
+        prior=BAD.prior,
+        discrepancy_kernel=RBF(1.0),
+        discrepancy_uncertainty=treatment,
+        n_restarts_optimizer=0,
+        random_state=0,
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", NonIdentifiabilityWarning)
+        cal.fit(BAD.X_obs, BAD.y_obs, **SIMS)
+    assert isinstance(cal.discrepancy_kernel_, RBF)
+    assert cal.discrepancy_kernel_.length_scale != 1.0
+    assert np.all(np.isfinite(cal.theta_mean_))
