@@ -23,7 +23,6 @@ from typing import ClassVar
 import numpy as np
 from sklearn.base import BaseEstimator, MultiOutputMixin, RegressorMixin, clone
 from sklearn.gaussian_process.kernels import Kernel
-from sklearn.utils import check_random_state
 from sklearn.utils.validation import check_is_fitted, validate_data
 from threadpoolctl import threadpool_limits
 
@@ -50,6 +49,7 @@ from skmba._validation import (
     InstanceOf,
     Options,
     Real,
+    random_state_instance,
     validate_parameter_table,
 )
 from skmba.kernels import Gauss, _DACECorrelation, check_correlation
@@ -144,7 +144,7 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
         one nearest to its standard deviation.
         Responses that are constant are predicted exactly (zero variance)
         and take no part in the likelihood.
-    random_state : int, RandomState instance or None, default=None
+    random_state : int, RandomState, Generator, SeedSequence or None, default=None
         Seeds the restarts (and nothing else).
     response_nugget : float, default=0.0
         Added to the diagonal of the estimated ``Sigma2``, as a fraction of the
@@ -599,7 +599,7 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
                 "n_samples must be a positive integer (the number of joint "
                 f"draws), got {n_samples!r}; e.g. n_samples=1."
             )
-        rng = check_random_state(random_state)
+        rng = random_state_instance(random_state)
         # covariance, its eigenvectors and their scaled copy
         mean, cov = self._predict_internal(X, full_cov=True, n_copies=4)
         s, q = mean.shape

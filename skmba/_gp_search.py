@@ -32,10 +32,10 @@ from typing import NamedTuple
 import numpy as np
 from scipy import optimize
 from sklearn.exceptions import ConvergenceWarning
-from sklearn.utils import check_random_state
 
 from skmba._likelihood import R_REMEDY, R_WHAT, NoiseFreeLikelihood
 from skmba._linalg import FactorizationError, smallest_pivot
+from skmba._validation import random_state_instance
 from skmba.kernels import _DACECorrelation
 
 # Noise variances, relative to each response's variance, and tau (noise to
@@ -280,7 +280,7 @@ class _Concentrated:
         search = free_kernel or self.with_nugget
         starts = [x0]
         if search:
-            rng = check_random_state(problem.random_state)
+            rng = random_state_instance(problem.random_state)
             for _ in range(problem.n_restarts):
                 start = x0.copy()
                 if free_kernel:

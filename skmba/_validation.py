@@ -40,6 +40,7 @@ from numbers import Integral
 from numbers import Real as _RealNumber
 
 import numpy as np
+from sklearn.utils import check_random_state
 
 NO_VALIDATION = "no_validation"
 
@@ -279,6 +280,26 @@ def seed_sequence(random_state):
         "random_state must be None, a non-negative int, a numpy RandomState, a "
         f"numpy Generator or a SeedSequence, got {random_state!r}."
     )
+
+
+def random_state_instance(random_state):
+    """A :class:`numpy.random.RandomState` for the code that needs one.
+
+    scikit-learn's ``check_random_state`` for None, an int or a
+    ``RandomState`` (the same numbers as before); a ``Generator`` or a
+    ``SeedSequence`` seeds a new ``RandomState`` through
+    :func:`seed_sequence`, so that two fresh Generators of one seed give
+    the same result.
+
+    Examples
+    --------
+    >>> a = random_state_instance(np.random.default_rng(0)).uniform()
+    >>> a == random_state_instance(np.random.default_rng(0)).uniform()
+    True
+    """
+    if isinstance(random_state, (np.random.Generator, np.random.SeedSequence)):
+        return np.random.RandomState(int_seed(seed_sequence(random_state)))
+    return check_random_state(random_state)
 
 
 def int_seed(sequence):

@@ -1047,3 +1047,19 @@ def test_fit_gives_finite_predictions_or_a_clear_error(problem):
     # +inf only when every response is constant (predicted exactly)
     assert np.isfinite(gp.log_marginal_likelihood_value_) or np.all(np.ptp(Y, 0) == 0)
     assert gp.sigma2_.shape == (Y.shape[1],) * 2 and np.all(np.isfinite(gp.sigma2_))
+
+
+def test_a_generator_seeds_the_restarts_and_gives_the_same_fit_twice():
+    """random_state takes a numpy Generator (issue 14): two fresh Generators
+    of one seed give the same restarts, hence the same fit and draws."""
+    X = np.linspace(0.0, 1.0, 12).reshape(-1, 1)
+    y = np.column_stack([np.sin(6 * X[:, 0]), X[:, 0] ** 2])
+    fits = [
+        MultiResponseGP(
+            n_restarts_optimizer=3, random_state=np.random.default_rng(1)
+        ).fit(X, y)
+        for _ in range(2)
+    ]
+    np.testing.assert_array_equal(fits[0].predict(X), fits[1].predict(X))
+    draws = [f.sample_y(X, 2, random_state=np.random.default_rng(4)) for f in fits]
+    np.testing.assert_array_equal(*draws)

@@ -19,6 +19,7 @@ from skmba._validation import (
     Real,
     check_count,
     int_seed,
+    random_state_instance,
     seed_sequence,
     validate_parameter_table,
 )
@@ -238,3 +239,20 @@ def test_seed_sequence_is_reproducible_and_refuses_bad_seeds():
     for bad in (-1, 1.5, "0", True):
         with pytest.raises(ValueError, match="random_state must be None, a non-neg"):
             seed_sequence(bad)
+
+
+def test_random_state_instance_keeps_sklearn_numbers_and_takes_generators():
+    from sklearn.utils import check_random_state
+
+    for seed in (None, 7, np.random.RandomState(3)):
+        rng = random_state_instance(seed)
+        assert isinstance(rng, np.random.RandomState)
+    assert random_state_instance(7).uniform() == check_random_state(7).uniform()
+    same = [random_state_instance(np.random.default_rng(5)).normal(size=3)]
+    same.append(random_state_instance(np.random.default_rng(5)).normal(size=3))
+    np.testing.assert_array_equal(*same)
+    seq = np.random.SeedSequence(9)
+    assert (
+        random_state_instance(seq).uniform()
+        == random_state_instance(np.random.SeedSequence(9)).uniform()
+    )
