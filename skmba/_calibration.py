@@ -423,9 +423,11 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         validate_parameter_table(self)
         check_field_data(X, y, self.discrepancy_regression)
         X, y = validate_data(self, X, y, multi_output=True, y_numeric=True)
-        X = X.astype(float)
+        # C order whatever the input's (a DataFrame gives Fortran order): the
+        # same bits as from an array.
+        X = np.ascontiguousarray(X, dtype=float)
         warn_few_distinct_inputs(X, self.discrepancy_regression)
-        Y = np.asarray(y, dtype=float).reshape(len(X), -1)
+        Y = np.ascontiguousarray(y, dtype=float).reshape(len(X), -1)
         q = Y.shape[1]
         # Before any simulation runs: a bad range must not waste them.
         ranges = module2_prior(self, X, q)

@@ -75,6 +75,14 @@ CRITERIA = ("trace", "det", "max_eig")
 DEFAULT_N_DESIGN = 25
 
 
+def _column_names(y):
+    """The column names of a pandas DataFrame ``y`` (strings), else None."""
+    columns = getattr(y, "columns", None)
+    if columns is None or getattr(y, "ndim", 2) != 2:
+        return None
+    return [str(c) for c in columns]
+
+
 class PreposteriorDesigner(BaseEstimator):
     """Choose the sensors that identify the calibration parameters best.
 
@@ -251,6 +259,9 @@ class PreposteriorDesigner(BaseEstimator):
         The module-1 emulator (standardised units).
     prior_ : skmba prior object
     n_responses_ : int
+    response_names_ : list of str or None
+        The column names of ``y`` when it is a pandas DataFrame (used by
+        :meth:`summary` and :meth:`score_subset`), else None.
     n_features_in_ : int
 
     See Also
@@ -391,9 +402,12 @@ class PreposteriorDesigner(BaseEstimator):
     def _fit(self, X, y):
         started = time.perf_counter()
         validate_parameter_table(self)
+        names = _column_names(y)
         X, y = validate_data(self, X, y, multi_output=True, y_numeric=True)
-        X = X.astype(float)
-        Y = np.asarray(y, dtype=float).reshape(len(X), -1)
+        # C order whatever the input's (a DataFrame gives Fortran order): the
+        # same bits as from an array.
+        X = np.ascontiguousarray(X, dtype=float)
+        Y = np.ascontiguousarray(y, dtype=float).reshape(len(X), -1)
         prior, d = self._prior(X)
         q = Y.shape[1]
         max_size = check_max_size(self.max_responses, q)
@@ -448,7 +462,9 @@ class PreposteriorDesigner(BaseEstimator):
         )
 
         # Step 3: preposterior covariance and its norm.
-        self._set_fitted(results, replicates, prior, prior_sd, q, X_design, emulator.gp)
+        self._set_fitted(
+            results, replicates, prior, prior_sd, q, X_design, emulator.gp, names
+        )
         unconverged = sum(rep.n_unconverged for rep in replicates)
         if unconverged:
             warnings.warn(
@@ -661,7 +677,9 @@ class PreposteriorDesigner(BaseEstimator):
                     )
         return results
 
-    def _set_fitted(self, results, replicates, prior, prior_sd, q, X_design, gp):
+    def _set_fitted(
+        self, results, replicates, prior, prior_sd, q, X_design, gp, names=None
+    ):
         """Step 3 and every fitted attribute, in one place."""
 
         def score(cov):
@@ -675,6 +693,7 @@ class PreposteriorDesigner(BaseEstimator):
         self.X_design_ = X_design
         self.model_gp_ = gp
         self.n_responses_ = q
+        self.response_names_ = names
         self.theta_draws_ = theta_draws
         self.subsets_ = subsets
         self.preposterior_cov_ = covs.mean(axis=1)
@@ -700,6 +719,29 @@ class PreposteriorDesigner(BaseEstimator):
     def _log(self, message, started):
         elapsed = time.perf_counter() - started
         self._progress().info(f"{message} ({elapsed:.1f} s)")
+
+    def _response_index(self, item):
+        """A response's 0-based index from its index or its name."""
+        if isinstance(item, str):
+            names = self.response_names_
+            if names is None:
+                raise ValueError(
+                    f"response {item!r} given by name, but the designer was fitted "
+                    "on an array y without names: pass 0-based indices, or fit "
+                    "with y as a pandas DataFrame whose columns name the responses."
+                )
+            if item not in names:
+                raise ValueError(
+                    f"unknown response {item!r}; the responses are {list(names)}."
+                )
+            return names.index(item)
+        index = int(item)
+        if not 0 <= index < self.n_responses_:
+            raise ValueError(
+                f"response index {index} is out of range for {self.n_responses_} "
+                "responses (0-based)."
+            )
+        return index
 
     def summary(self, response_names=None):
         """The scored sensor subsets, best (lowest score) first.
@@ -734,15 +776,16 @@ class PreposteriorDesigner(BaseEstimator):
 
         Parameters
         ----------
-        subset : sequence of int
-            0-based response indices.
+        subset : sequence of int or str
+            0-based response indices, or response names (``response_names_``,
+            the columns of a DataFrame ``y``).
 
         Returns
         -------
         float
         """
         check_is_fitted(self, "scores_")
-        key = tuple(sorted(int(i) for i in subset))
+        key = tuple(sorted(self._response_index(i) for i in subset))
         if key not in self.subsets_:
             raise ValueError(
                 f"subset {key} was not scored; the search scored {len(self.subsets_)} "

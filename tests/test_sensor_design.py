@@ -334,3 +334,26 @@ def test_bad_data_names_the_fix(small):
         bad = X.copy()
         bad[0, 0] = np.nan
         designer(data.prior).fit(bad, data.y_sim)
+
+
+def test_responses_by_name_with_a_dataframe(small, exhaustive):
+    """A DataFrame y names the responses: score_subset and summary take
+    them; with an array y, names are an error that says what to do."""
+    pd = pytest.importorskip("pandas")
+    data, X = small
+    names = ["tip", "energy", "mid"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        named = designer(data.prior).fit(X, pd.DataFrame(data.y_sim, columns=names))
+    assert named.response_names_ == names
+    np.testing.assert_array_equal(named.scores_, exhaustive.scores_)
+    assert named.score_subset(["mid", "tip"]) == exhaustive.score_subset([0, 2])
+    assert named.score_subset(["energy", 0]) == exhaustive.score_subset((0, 1))
+    assert set(named.summary()["subset"]) >= {"tip", "tip, energy, mid"}
+    assert exhaustive.response_names_ is None
+    with pytest.raises(ValueError, match="fitted on an array y without names"):
+        exhaustive.score_subset(["tip"])
+    with pytest.raises(ValueError, match=r"unknown response 'rotation'; the "):
+        named.score_subset(["rotation"])
+    with pytest.raises(ValueError, match="response index 3 is out of range"):
+        named.score_subset([3])
