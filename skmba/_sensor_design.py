@@ -34,27 +34,30 @@ from joblib import Parallel, delayed
 from scipy import stats
 from sklearn.base import BaseEstimator, clone
 from sklearn.exceptions import ConvergenceWarning
-from sklearn.utils import check_array
 from sklearn.utils.validation import check_is_fitted, validate_data
 from threadpoolctl import threadpool_limits
 
 from skmba._calibration import ModularBayesCalibrator
+from skmba._design_inputs import (
+    column_names,
+    designer_prior,
+    field_design,
+    response_index,
+    synthetic_data_priors,
+)
 from skmba._discrepancy import (
     discrepancy_kernel,
 )
 from skmba._emulator import Standardizer, fit_emulator
-from skmba._hyperprior import Hyperprior
 from skmba._integration import integrate_over_prior
 from skmba._mba import DISCREPANCY_UNCERTAINTIES, module_settings
 from skmba._preposterior import (
     PRIOR_UNITS,
     MonteCarloContext,
-    check_design_priors,
     criterion_value,
     draw_replicate,
     subset_moments,
 )
-from skmba._priors import check_prior
 from skmba._progress import Progress, results_as_ready
 from skmba._search import all_subsets, check_max_size, genetic, greedy_forward
 from skmba._subset_likelihood import FieldDesignEmulator
@@ -72,15 +75,6 @@ from skmba._validation import (
 
 SEARCHES = ("exhaustive", "greedy", "genetic")
 CRITERIA = ("trace", "det", "max_eig")
-DEFAULT_N_DESIGN = 25
-
-
-def _column_names(y):
-    """The column names of a pandas DataFrame ``y`` (strings), else None."""
-    columns = getattr(y, "columns", None)
-    if columns is None or getattr(y, "ndim", 2) != 2:
-        return None
-    return [str(c) for c in columns]
 
 
 class PreposteriorDesigner(BaseEstimator):
@@ -402,13 +396,13 @@ class PreposteriorDesigner(BaseEstimator):
     def _fit(self, X, y):
         started = time.perf_counter()
         validate_parameter_table(self)
-        names = _column_names(y)
+        names = column_names(y)
         X, y = validate_data(self, X, y, multi_output=True, y_numeric=True)
         # C order whatever the input's (a DataFrame gives Fortran order): the
         # same bits as from an array.
         X = np.ascontiguousarray(X, dtype=float)
         Y = np.ascontiguousarray(y, dtype=float).reshape(len(X), -1)
-        prior, d = self._prior(X)
+        prior, d = designer_prior(self.prior, self.calibrator, X)
         q = Y.shape[1]
         max_size = check_max_size(self.max_responses, q)
         # One child of the seed per random step: module 1, module 2a, the
@@ -417,14 +411,6 @@ class PreposteriorDesigner(BaseEstimator):
         seeds = [int_seed(c) for c in children[:4]]
         cal = self._template()
         X_sim, theta_sim = X[:, :d], X[:, d:]
-        support = prior.bounds(0.999)
-        if np.any(theta_sim.max(axis=0) < support[:, 0]) or np.any(
-            theta_sim.min(axis=0) > support[:, 1]
-        ):
-            raise ValueError(
-                "The simulated parameters (last r columns of X) do not overlap the "
-                "prior's support: simulate over the prior's range."
-            )
 
         # Step 1: emulator, design, priors, prior-integrated emulator.
         scaler = Standardizer.from_simulations(X_sim, theta_sim, Y)
@@ -437,8 +423,8 @@ class PreposteriorDesigner(BaseEstimator):
             random_state=seeds[0],
             progress=self._progress(),
         )
-        priors = self._design_priors(d, q, scaler.y_scale)
-        X_design = self._design(X_sim, seeds[2])
+        priors = synthetic_data_priors(self, d, q, scaler.y_scale)
+        X_design = field_design(self.X_design, self.n_design, X_sim, seeds[2])
         ctx = self._context(cal, prior, priors, scaler, emulator, X_design, seeds)
         prior_sd = np.sqrt(np.diag(prior.cov()))
         self._log("step 1: emulator and prior-integrated emulator", started)
@@ -488,61 +474,6 @@ class PreposteriorDesigner(BaseEstimator):
         self._log(f"done: best subset {self.best_subset_}", started)
         return self
 
-    def _prior(self, X):
-        """The checked prior and the number of design variables."""
-        prior = self.prior
-        if prior is None and self.calibrator is not None:
-            prior = self.calibrator.prior
-        if prior is None:
-            raise ValueError(
-                "prior is required: pass the prior of the calibration parameters, "
-                "e.g. prior=[scipy.stats.uniform(lo, hi - lo)]."
-            )
-        prior = check_prior(prior)
-        N, r = len(X), prior.dim
-        d = X.shape[1] - r
-        if d < 1:
-            raise ValueError(
-                f"X has {X.shape[1]} columns (n_features={X.shape[1]}) but the "
-                f"prior has {r} parameters: X "
-                "must hold the design variables first and the r calibration "
-                "parameters as its last r columns."
-            )
-        if N < 2 * (d + r) + 1:
-            raise ValueError(
-                f"{N} simulations (n_samples={N}) are too few for {d + r} inputs: "
-                "the emulator "
-                f"needs at least {2 * (d + r) + 1}, and about {10 * (d + r)} "
-                "are recommended."
-            )
-        return prior, d
-
-    def _design_priors(self, d, q, y_scale):
-        """The priors of the synthetic data: ranges (plug-in) or a Hyperprior."""
-        if self.discrepancy_uncertainty == "plug-in":
-            return check_design_priors(
-                self.discrepancy_prior,
-                self.noise_prior,
-                self.prior_units,
-                d,
-                q,
-                y_scale,
-            )
-        for name, value, default in (
-            ("noise_prior", self.noise_prior, None),
-            ("prior_units", self.prior_units, "standardised"),
-        ):
-            if value != default:
-                raise ValueError(
-                    f"{name}={value!r} belongs to discrepancy_uncertainty='plug-in'; "
-                    "with 'propagate' the noise prior is discrepancy_prior['noise'] "
-                    "and every prior is in standardised units: leave "
-                    f"{name} at {default!r}."
-                )
-        prior = Hyperprior.from_spec(self.discrepancy_prior)
-        prior.scales(q)
-        return prior
-
     def _template(self):
         """The calibrator whose MBA settings the designer uses, checked."""
         cal = clone(
@@ -551,29 +482,6 @@ class PreposteriorDesigner(BaseEstimator):
         cal.set_params(prior=None, simulator=None, n_jobs=self.n_jobs)
         validate_parameter_table(cal)
         return cal
-
-    def _design(self, X_sim, seed):
-        """The planned field inputs: ``X_design`` checked, or a hypercube."""
-        d = X_sim.shape[1]
-        lo, hi = X_sim.min(axis=0), X_sim.max(axis=0)
-        if self.X_design is None:
-            n_design = DEFAULT_N_DESIGN if self.n_design is None else self.n_design
-            u = stats.qmc.LatinHypercube(d=d, seed=seed).random(n_design)
-            return lo + (hi - lo) * u
-        X_design = check_array(self.X_design, input_name="X_design")
-        if X_design.shape[1] != d:
-            raise ValueError(
-                f"X_design has {X_design.shape[1]} columns but the simulations "
-                f"have {d} design variables."
-            )
-        tol = 1e-9 * np.maximum(hi - lo, 1.0)
-        if np.any(X_design < lo - tol) or np.any(X_design > hi + tol):
-            raise ValueError(
-                "X_design lies outside the range of the simulated design "
-                f"variables [{lo.tolist()}, {hi.tolist()}]: the emulator would "
-                "extrapolate. Keep X_design inside it or extend the simulations."
-            )
-        return X_design
 
     def _context(self, cal, prior, priors, scaler, emulator, X_design, seeds):
         """Step 1 at the design: what every Monte Carlo task needs."""
@@ -720,29 +628,6 @@ class PreposteriorDesigner(BaseEstimator):
         elapsed = time.perf_counter() - started
         self._progress().info(f"{message} ({elapsed:.1f} s)")
 
-    def _response_index(self, item):
-        """A response's 0-based index from its index or its name."""
-        if isinstance(item, str):
-            names = self.response_names_
-            if names is None:
-                raise ValueError(
-                    f"response {item!r} given by name, but the designer was fitted "
-                    "on an array y without names: pass 0-based indices, or fit "
-                    "with y as a pandas DataFrame whose columns name the responses."
-                )
-            if item not in names:
-                raise ValueError(
-                    f"unknown response {item!r}; the responses are {list(names)}."
-                )
-            return names.index(item)
-        index = int(item)
-        if not 0 <= index < self.n_responses_:
-            raise ValueError(
-                f"response index {index} is out of range for {self.n_responses_} "
-                "responses (0-based)."
-            )
-        return index
-
     def summary(self, response_names=None):
         """The scored sensor subsets, best (lowest score) first.
 
@@ -785,7 +670,8 @@ class PreposteriorDesigner(BaseEstimator):
         float
         """
         check_is_fitted(self, "scores_")
-        key = tuple(sorted(self._response_index(i) for i in subset))
+        names, q = self.response_names_, self.n_responses_
+        key = tuple(sorted(response_index(i, names, q) for i in subset))
         if key not in self.subsets_:
             raise ValueError(
                 f"subset {key} was not scored; the search scored {len(self.subsets_)} "
