@@ -122,8 +122,8 @@ def propagated(small):
         )
 
 
-def test_propagate_mixes_module_2_draws_as_the_calibrator_does(small, propagated):
-    """Each replicate's likelihood is the calibrator's mixture over phi_k."""
+def test_propagate_changes_module_2_and_the_data_priors_only(small, propagated):
+    """The same theta per replicate as the plug-in; other data and scores."""
     d = propagated
     assert d.subsets_ == [(0,), (1,), (2,), (0, 1), (0, 2), (1, 2), (0, 1, 2)]
     assert np.all((d.scores_ > 0) & (d.scores_ < 1.05))
