@@ -47,9 +47,9 @@ from skmba._prediction import PredictionRule, predict_component
 from skmba._progress import Progress
 from skmba._regression import REGRESSIONS
 from skmba._simulations import (
+    check_failed_runs,
     check_response_ranges,
     check_simulation_design,
-    check_simulator_runs,
     given_simulations,
 )
 from skmba._summary import (
@@ -88,9 +88,13 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
     Parameters
     ----------
     simulator : callable, default=None
-        ``simulator(X, theta) -> Y``, called on arrays of runs: ``X`` (n, d),
-        ``theta`` (n, r), ``Y`` (n, q). ``fit`` runs it on a Latin hypercube
-        over the range of ``X`` times the prior's 0.999 central interval.
+        ``simulator(X, theta) -> Y``, called on blocks of runs: ``X`` (n, d),
+        ``theta`` (n, r), ``Y`` (n, q), first on all of them at once. ``fit``
+        runs it on a Latin hypercube over the range of ``X`` times the
+        prior's 0.999 central interval. A run that raises or returns NaN or
+        inf is left out and listed in ``simulation_failures_`` (a block that
+        raises is halved until the failing runs are found); ``fit`` warns
+        with their count and fails only when too few runs remain.
         Not needed after ``fit`` (``set_params(simulator=None)`` before
         pickling one that cannot be pickled; see the User Guide).
     prior : list or dict of frozen scipy.stats distributions, frozen \
@@ -242,7 +246,12 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         ``log_likelihood(theta_std)`` takes standardised parameters
         ``(theta - theta_offset_) / theta_scale_``.
     X_sim_, theta_sim_, y_sim_ : ndarray
-        The simulations used (given and run).
+        The simulations used (given and run, the successful ones).
+    simulation_failures_ : list of SimulationFailure
+        The runs left out: rows of ``y_sim`` with NaN or inf and simulator
+        runs that raised or returned NaN or inf, each a named tuple
+        ``(source, index, X, theta, error)`` (``pandas.DataFrame`` of the
+        list tabulates them); empty when every run succeeded.
     X_mean_, X_scale_, theta_offset_, theta_scale_, y_mean_, y_scale_ : ndarray
         The standardisation (simulation data as reference): the centre and
         the scale of each design variable, parameter and response.
@@ -368,7 +377,9 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
             Field observations.
         X_sim, theta_sim, y_sim : array-like, optional
             A precomputed simulation dataset: inputs (N, d), parameters
-            (N, r) and responses (N, q).
+            (N, r) and responses (N, q). Rows of ``y_sim`` with NaN or inf
+            (failed runs) are left out and listed in
+            ``simulation_failures_``.
 
         Returns
         -------
@@ -380,8 +391,8 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
             Invalid data or parameters; the message names the argument and
             the fix.
         RuntimeError
-            The simulator raised; the message names the run and its inputs
-            and the simulator's exception is chained.
+            The simulator failed on every run; the message names one and its
+            inputs and the simulator's exception is chained.
 
         Warns
         -----
@@ -389,7 +400,8 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
             A parameter the data cannot tell from the discrepancy (see
             ``identifiability_``).
         UserWarning
-            Observation inputs outside the range of the simulations; more
+            Failed simulation runs (their count and errors); observation
+            inputs outside the range of the simulations; more
             than 2 % of the prior mass outside the simulated range of theta;
             poor MCMC diagnostics (R-hat, effective sample size).
         """
@@ -441,7 +453,7 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         progress = Progress(self.verbose, "ModularBayesCalibrator")
         sims = simulations_for(self, X, q, prior, given, seeds[0], progress)
         partial["simulations"] = sims
-        check_simulator_runs(sims)
+        check_failed_runs(sims, self.regression, X.shape[1] + prior.dim)
         if sims.theta.shape[1] != prior.dim:
             raise ValueError(
                 f"theta_sim has {sims.theta.shape[1]} columns but the prior has "

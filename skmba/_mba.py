@@ -397,6 +397,7 @@ def fitted_attributes(
     out["parameter_names_"] = parameter_names(prior)
     out["X_obs_"], out["y_obs_"] = X, y
     out["X_sim_"], out["theta_sim_"], out["y_sim_"] = sims.X, sims.theta, sims.y
+    out["simulation_failures_"] = list(sims.failures)
     out["X_mean_"], out["X_scale_"] = scaler.X_mean, scaler.X_scale
     out["theta_offset_"], out["theta_scale_"] = scaler.theta_offset, scaler.theta_scale
     out["y_mean_"], out["y_scale_"] = scaler.y_mean, scaler.y_scale

@@ -10,14 +10,17 @@ Examples
 --------
 >>> import numpy as np
 >>> from skmba._simulations import run_simulator
->>> run_simulator(lambda X, t: X * t, np.ones((2, 1)), np.full((2, 1), 3.0))
+>>> runs = run_simulator(lambda X, t: X * t, np.ones((2, 1)), np.full((2, 1), 3.0), 1)
+>>> runs.y
 array([[3.],
        [3.]])
 """
 
 import time
 import warnings
+from collections import Counter
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from scipy import sparse, stats
@@ -33,9 +36,34 @@ _PRIOR_MASS_ERROR = 0.01
 _PRIOR_MASS_WARNING = 0.02
 
 
+class SimulationFailure(NamedTuple):
+    """A simulation run that gave no usable output.
+
+    ``pandas.DataFrame(cal.simulation_failures_)`` tabulates them.
+
+    Attributes
+    ----------
+    source : {"simulator", "y_sim"}
+        A run of the simulator in this fit, or a row of the given ``y_sim``.
+    index : int
+        The run's row in the simulator's design, or in ``y_sim``.
+    X : ndarray of shape (d,)
+    theta : ndarray of shape (r,)
+    error : str
+        The exception (``"ZeroDivisionError: mesh collapsed"``) or
+        ``"non-finite output [...]"``.
+    """
+
+    source: str
+    index: int
+    X: np.ndarray
+    theta: np.ndarray
+    error: str
+
+
 @dataclass(frozen=True)
 class SimulationData:
-    """The simulation runs in user units.
+    """The successful simulation runs in user units, and the failed ones.
 
     Attributes
     ----------
@@ -44,12 +72,23 @@ class SimulationData:
     y : ndarray of shape (N, q)
     n_simulator_runs : int
         How many of the runs (the last ones) the simulator made in this fit.
+    failures : tuple of SimulationFailure
+        The runs left out: the given ``y_sim`` rows with NaN or inf, then
+        the simulator's failed runs.
+    n_simulator_failures : int
+        How many of the failures are the simulator's.
+    first_exception : Exception or None
+        The first exception the simulator raised (chained to an error when
+        every run failed).
     """
 
     X: np.ndarray
     theta: np.ndarray
     y: np.ndarray
     n_simulator_runs: int = 0
+    failures: tuple = ()
+    n_simulator_failures: int = 0
+    first_exception: BaseException | None = None
 
 
 # ---------------------------------------------------------------- checks
@@ -108,7 +147,7 @@ def check_2d(A, name, shape):
 
 
 # ------------------------------------------------------------- simulator
-def _check_simulator_output(Y, n, q):
+def _check_simulator_output(Y, n, q, first=0):
     try:
         Y = np.asarray(Y, dtype=float)
     except (TypeError, ValueError) as exc:
@@ -124,49 +163,89 @@ def _check_simulator_output(Y, n, q):
         expected = f"({n}, {q if q is not None else 'q'})"
         raise ValueError(
             f"simulator returned an array of shape {np.shape(Y)} for runs "
-            f"0..{n - 1}; it must return {expected}: one row per run and one "
+            f"{first}..{first + n - 1}; it must return {expected}: one row per "
+            "run and one "
             "column per response."
         )
     return Y
 
 
-def run_simulator(simulator, X, theta, q=None, *, check_finite=True):
-    """Run ``simulator(X, theta)`` and check what it returns.
+@dataclass(frozen=True)
+class SimulatorRuns:
+    """What :func:`run_simulator` got: outputs, NaN rows where runs failed.
 
-    When the batch call raises, the runs are retried one by one so that the
-    error names the failing run and its inputs; the original exception is
-    chained (``__cause__``). ``check_finite=False`` leaves NaN and inf in
-    the output for the caller to report.
+    Attributes
+    ----------
+    y : ndarray of shape (n, q)
+        The outputs; the rows of failed runs are NaN.
+    errors : dict
+        ``{run: exception or message}`` for the failed runs.
+    n_calls : int
+        Calls of the simulator (1 when the batch succeeds).
+    batch_error : Exception or None
+        The batch call's exception when it raised.
     """
-    try:
-        Y = simulator(X, theta)
-    except Exception as batch_error:
-        for i in range(len(X)):
-            try:
-                simulator(X[i : i + 1], theta[i : i + 1])
-            except Exception as exc:
-                raise RuntimeError(
-                    f"simulator raised {type(exc).__name__} at run {i} (of "
-                    f"{len(X)}) with X={X[i].tolist()}, theta={theta[i].tolist()}: "
-                    f"{exc}. Fix the simulator for these inputs, or run the "
-                    "simulations yourself and pass the successful ones to "
-                    "fit(X, y, X_sim=..., theta_sim=..., y_sim=...)."
-                ) from exc
-        raise RuntimeError(
-            f"simulator raised {type(batch_error).__name__} on the batch of "
-            f"{len(X)} runs but on none of them alone: {batch_error}. Check "
-            "that it handles arrays of several rows (X of shape (n, d), theta "
-            "of shape (n, r))."
-        ) from batch_error
-    Y = _check_simulator_output(Y, len(X), q)
-    bad = nonfinite_rows(Y)
-    if check_finite and bad.size:
-        raise ValueError(
-            f"simulator returned non-finite values (NaN or inf) for runs "
-            f"{bad.tolist()[:10]}. Fix the model for these inputs or narrow "
-            "the prior / input range."
-        )
-    return Y
+
+    y: np.ndarray
+    errors: dict
+    n_calls: int
+    batch_error: BaseException | None
+
+
+def _output_text(row):
+    values = ", ".join(f"{v:.4g}" for v in row[:6])
+    return f"non-finite output [{values}{', ...' if len(row) > 6 else ''}]"
+
+
+def run_simulator(simulator, X, theta, q):
+    """Run ``simulator(X, theta)`` on blocks of runs; keep what succeeds.
+
+    The whole design is one call. When a call raises, its block is halved
+    and each half called again, down to single runs: a simulator that fails
+    on some runs costs about ``2 log2(n)`` calls per failure, and every
+    successful run is kept. A run fails when its call raises alone, or when
+    its output row holds NaN or inf. An output of the wrong shape or type
+    is an error of the simulator's contract and raises at once.
+
+    Returns
+    -------
+    SimulatorRuns
+
+    Examples
+    --------
+    >>> def model(X, t):
+    ...     if np.any(t > 2):
+    ...         raise ArithmeticError("solver diverged")
+    ...     return X * t
+    >>> runs = run_simulator(model, np.ones((4, 1)), np.arange(4.0)[:, None], 1)
+    >>> runs.y.ravel().tolist(), sorted(runs.errors)
+    ([0.0, 1.0, 2.0, nan], [3])
+    """
+    n = len(X)
+    Y = np.full((n, q), np.nan)
+    errors = {}
+    n_calls = 0
+    batch_error = None
+    blocks = [np.arange(n)]
+    while blocks:
+        rows = blocks.pop()
+        n_calls += 1
+        try:
+            out = simulator(X[rows], theta[rows])
+        except Exception as exc:
+            if len(rows) == n:
+                batch_error = exc
+            if len(rows) == 1:
+                errors[int(rows[0])] = exc
+            else:
+                half = len(rows) // 2
+                blocks += [rows[half:], rows[:half]]
+            continue
+        Y[rows] = _check_simulator_output(out, len(rows), q, rows[0])
+    for i in nonfinite_rows(Y):
+        errors.setdefault(int(i), _output_text(Y[i]))
+    Y[list(errors)] = np.nan
+    return SimulatorRuns(Y, dict(sorted(errors.items())), n_calls, batch_error)
 
 
 # ------------------------------------------------------------ the runs
@@ -210,12 +289,13 @@ def given_simulations(X, q, X_sim, theta_sim, y_sim):
             "X_sim, theta_sim and y_sim are empty (0 simulations): pass the "
             "simulation dataset, or None and a simulator."
         )
-    for name, A in arrays.items():
+    for name in ("X_sim", "theta_sim"):
         check_finite_rows(
-            A,
+            arrays[name],
             name,
-            "drop these rows (failed simulation runs) from X_sim, theta_sim "
-            "and y_sim alike.",
+            "the inputs of every run must be known; drop these rows from "
+            "X_sim, theta_sim and y_sim alike (a failed run is a NaN row of "
+            "y_sim only).",
         )
     if X_sim.shape[1] != X.shape[1]:
         raise ValueError(
@@ -228,7 +308,15 @@ def given_simulations(X, q, X_sim, theta_sim, y_sim):
             "simulated and observed responses must be the same, in the "
             "same order."
         )
-    return SimulationData(X_sim, theta_sim, y_sim)
+    failed = nonfinite_rows(y_sim)
+    keep = np.setdiff1d(np.arange(len(y_sim)), failed)
+    failures = tuple(
+        SimulationFailure(
+            "y_sim", int(i), X_sim[i], theta_sim[i], _output_text(y_sim[i])
+        )
+        for i in failed
+    )
+    return SimulationData(X_sim[keep], theta_sim[keep], y_sim[keep], failures=failures)
 
 
 #: Runs per emulator input below which a design is called small: the rule
@@ -237,22 +325,25 @@ def given_simulations(X, q, X_sim, theta_sim, y_sim):
 RUNS_PER_INPUT = 10
 
 
-def check_design_size(n_total, regression, k):
+def check_design_size(n_total, regression, k, *, failed=None):
     """Enough runs for an emulator on ``k`` inputs with ``regression``.
 
     An error below what the regression needs; a warning below
-    :data:`RUNS_PER_INPUT` runs per input.
+    :data:`RUNS_PER_INPUT` runs per input. ``failed``, a text saying which
+    runs failed, marks the check after the runs: it then only raises (the
+    warning came before the runs) and the error says why runs are missing.
     """
     needed = max(3, n_regression_terms(regression, k) + 1)
-    if n_total and n_total < needed:
+    if n_total < needed and (n_total or failed):
+        after = "" if failed is None else f" after {failed}"
         raise ValueError(
-            f"{n_total} simulations are too few to fit an emulator: "
+            f"{n_total} simulations{after} are too few to fit an emulator: "
             f"regression={regression!r} on d + r = {k} inputs needs at "
             f"least {needed}; provide about {RUNS_PER_INPUT} per input "
             f"({RUNS_PER_INPUT * k}) with n_simulations or X_sim, theta_sim "
             "and y_sim."
         )
-    if n_total and n_total < RUNS_PER_INPUT * k:
+    if failed is None and n_total and n_total < RUNS_PER_INPUT * k:
         warnings.warn(
             f"{n_total} simulations for d + r = {k} emulator inputs are fewer "
             f"than the rule of thumb of {RUNS_PER_INPUT} per input "
@@ -329,54 +420,112 @@ def simulation_design(X, prior, n_runs, given, seed):
 
 
 def collect_simulations(simulator, X, q, prior, given, n_runs, seed, progress=None):
-    """The given runs and ``n_runs`` simulator runs, stacked.
+    """The given runs and ``n_runs`` simulator runs, stacked, failures apart.
 
-    Returns the runs even when some of the simulator's are not finite (so
-    that the caller can keep them); :func:`check_simulator_runs` reports
-    those. ``progress`` (a :class:`~skmba._progress.Progress`, None is
-    silent) shows a bar of the runs around the one batch call of the
-    simulator, then their number and time.
+    The successful runs form the data; the failed ones (see
+    :func:`run_simulator`) are listed in ``failures`` for
+    :func:`check_failed_runs` to report. ``progress`` (a
+    :class:`~skmba._progress.Progress`, None is silent) shows a bar of the
+    runs around the simulator's calls, then their number and time.
     """
     progress = as_progress(progress)
     parts = [] if given is None else [(given.X, given.theta, given.y)]
+    failures = [] if given is None else list(given.failures)
+    n_kept = n_failed = 0
+    first_exception = None
     if simulator is not None:
         X_run, theta_run = simulation_design(X, prior, n_runs, given, seed)
         started = time.perf_counter()
         with progress.bar(n_runs, "simulator", unit="run") as bar:
-            y_run = run_simulator(simulator, X_run, theta_run, q, check_finite=False)
+            runs = run_simulator(simulator, X_run, theta_run, q)
             bar.update(n_runs)
         progress.info(
-            f"simulator: {n_runs} runs in {time.perf_counter() - started:.1f} s"
+            f"simulator: {n_runs} runs in {runs.n_calls} call(s), "
+            f"{len(runs.errors)} failed, {time.perf_counter() - started:.1f} s"
         )
-        parts.append((X_run, theta_run, y_run))
-    else:
-        n_runs = 0
+        for i, error in runs.errors.items():
+            if first_exception is None and isinstance(error, BaseException):
+                first_exception = error
+            text = error if isinstance(error, str) else _exception_text(error)
+            failures.append(
+                SimulationFailure("simulator", i, X_run[i], theta_run[i], text)
+            )
+        ok = np.setdiff1d(np.arange(n_runs), list(runs.errors))
+        parts.append((X_run[ok], theta_run[ok], runs.y[ok]))
+        n_kept, n_failed = len(ok), len(runs.errors)
+        if runs.batch_error is not None and not runs.errors:
+            warnings.warn(
+                f"simulator raised {_exception_text(runs.batch_error)} on the "
+                f"batch of {n_runs} runs but not on smaller blocks; it was "
+                f"called {runs.n_calls} times. Make it handle arrays of many "
+                "rows (X of shape (n, d), theta of shape (n, r)), or run it "
+                "yourself and pass X_sim, theta_sim and y_sim to fit.",
+                UserWarning,
+                stacklevel=5,
+            )
     if not parts:
         raise ValueError(
             "No simulations: pass a simulator (and a prior) to the "
             "constructor, or X_sim, theta_sim and y_sim to fit."
         )
     X_sim, theta_sim, y_sim = (np.vstack(p) for p in zip(*parts, strict=True))
-    return SimulationData(X_sim, theta_sim, y_sim, n_runs)
+    return SimulationData(
+        X_sim,
+        theta_sim,
+        y_sim,
+        n_kept,
+        tuple(failures),
+        n_failed,
+        first_exception,
+    )
 
 
-def check_simulator_runs(sims):
-    """The simulator's runs must be finite; the error says how to recover."""
-    n_run, N = sims.n_simulator_runs, len(sims.y)
-    bad = nonfinite_rows(sims.y[N - n_run :])
-    if not bad.size:
+def _exception_text(exc):
+    return f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
+
+
+def check_failed_runs(sims, regression, k):
+    """Report the failed runs: an error when too few runs are left, else a warning.
+
+    Every simulator run failing is a RuntimeError (with the first exception
+    chained): the simulator, not the inputs, is then the likely cause.
+    Too few runs left for the emulator is the ValueError of
+    :func:`check_design_size`; otherwise a UserWarning gives the count and
+    the most frequent errors.
+    """
+    failures = sims.failures
+    if not failures:
         return
-    first = bad[0] + N - n_run
-    rows = (bad + N - n_run).tolist()
-    raise ValueError(
-        f"simulator returned non-finite values (NaN or inf) for "
-        f"{bad.size} of {n_run} runs, e.g. run {bad[0]} with "
-        f"X={sims.X[first].tolist()}, theta={sims.theta[first].tolist()}. "
-        "Fix the model for these inputs or narrow the prior / input "
-        f"range; or drop rows {rows[:10]}{' ...' if len(rows) > 10 else ''}"
-        " of X_sim_, theta_sim_ and y_sim_ (which keep all runs) and "
-        "pass the rest to fit(X, y, X_sim=..., theta_sim=..., y_sim=...) "
-        "with simulator=None."
+    n_sim_failed = sims.n_simulator_failures
+    n_runs = sims.n_simulator_runs + n_sim_failed
+    if n_runs and n_sim_failed == n_runs:
+        first = next(f for f in failures if f.source == "simulator")
+        raise RuntimeError(
+            f"simulator failed on all {n_runs} runs, e.g. run {first.index} "
+            f"with X={first.X.tolist()}, theta={first.theta.tolist()}: "
+            f"{first.error}. Fix the simulator (call it on a few rows of "
+            "X_sim_ and theta_sim_ to see why), or run the simulations "
+            "yourself and pass the successful ones to fit(X, y, X_sim=..., "
+            "theta_sim=..., y_sim=...)."
+        ) from sims.first_exception
+    parts = []
+    if n_sim_failed:
+        parts.append(f"{n_sim_failed} of {n_runs} simulator runs failed")
+    n_given = len(failures) - n_sim_failed
+    if n_given:
+        parts.append(f"{n_given} row(s) of y_sim hold NaN or inf")
+    common = Counter(f.error for f in failures).most_common(3)
+    errors = "; ".join(f"{count}x {error}" for error, count in common)
+    context = f"{' and '.join(parts)} ({errors})"
+    check_design_size(len(sims.X), regression, k, failed=context)
+    warnings.warn(
+        f"{context}: the {len(sims.X)} successful runs are used and the "
+        "failed ones are listed in simulation_failures_ (inputs and error). "
+        "Where failures cluster, the emulator has fewer runs and is less "
+        "certain; fix the simulator there or narrow the prior / input "
+        "range if they mark a region the model cannot represent.",
+        UserWarning,
+        stacklevel=4,
     )
 
 
