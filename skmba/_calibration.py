@@ -23,6 +23,7 @@ from sklearn.gaussian_process.kernels import Kernel
 from sklearn.utils.validation import check_is_fitted, validate_data
 from threadpoolctl import threadpool_limits
 
+from skmba._columns import column_names, match_columns
 from skmba._discrepancy import DISCREPANCY_OPTIMIZERS
 from skmba._field_data import check_field_data, warn_few_distinct_inputs
 from skmba._identifiability import warn_if_confounded
@@ -37,6 +38,8 @@ from skmba._mba import (
     checked_prior,
     fitted_attributes,
     module2_prior,
+    named_simulations,
+    prior_names,
     run_modules,
     simulations_for,
 )
@@ -233,8 +236,14 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         discrepancy can mimic its effect and its interval reflects the
         discrepancy prior more than the data.
     parameter_names_ : list of str
-        The names of the calibration parameters: the keys of a dict prior,
+        The names of the calibration parameters: the keys of a dict prior
+        (or, without a prior, the columns of a ``theta_sim`` DataFrame),
         else ``theta0, theta1, ...``.
+    response_names_ : list of str or None
+        The column names of ``y`` when it is a pandas DataFrame, else None.
+    feature_names_in_ : ndarray of shape (d,)
+        The column names of ``X`` when it is a DataFrame with string column
+        names (scikit-learn's rule); only then.
     X_obs_, y_obs_ : ndarray
         The field data of ``fit`` (for :meth:`to_inference_data`).
     theta_nodes_, theta_weights_ : ndarray
@@ -371,14 +380,17 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
 
         Parameters
         ----------
-        X : array-like of shape (n, d)
+        X : array-like or DataFrame of shape (n, d)
             Field inputs (design variables) of the observations.
-        y : array-like of shape (n,) or (n, q)
+        y : array-like or DataFrame of shape (n,) or (n, q)
             Field observations.
-        X_sim, theta_sim, y_sim : array-like, optional
+        X_sim, theta_sim, y_sim : array-like or DataFrame, optional
             A precomputed simulation dataset: inputs (N, d), parameters
-            (N, r) and responses (N, q). Rows of ``y_sim`` with NaN or inf
-            (failed runs) are left out and listed in
+            (N, r) and responses (N, q). DataFrames are matched by column
+            name to ``X``, to the keys of a dict ``prior`` and to ``y`` when
+            those are named (their order may differ; different names are a
+            ValueError listing both); arrays by position. Rows of ``y_sim``
+            with NaN or inf (failed runs) are left out and listed in
             ``simulation_failures_``.
 
         Returns
@@ -434,7 +446,18 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         """Modules 1-3; returns what :meth:`_set_fitted` stores."""
         validate_parameter_table(self)
         check_field_data(X, y, self.discrepancy_regression)
+        responses = column_names(y)
         X, y = validate_data(self, X, y, multi_output=True, y_numeric=True)
+        # Tables of simulations are matched to the field data and the prior
+        # by their column names (arrays by position).
+        X_sim, theta_sim, y_sim = named_simulations(
+            X_sim,
+            theta_sim,
+            y_sim,
+            features=getattr(self, "feature_names_in_", None),
+            parameters=prior_names(self.prior),
+            responses=responses,
+        )
         # C order whatever the input's (a DataFrame gives Fortran order): the
         # same bits as from an array.
         X = np.ascontiguousarray(X, dtype=float)
@@ -447,7 +470,7 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         # modules 1, 2a, 2b and 3.
         seeds = [int_seed(c) for c in seed_sequence(self.random_state).spawn(7)]
         given = given_simulations(X, q, X_sim, theta_sim, y_sim)
-        prior = checked_prior(self.prior, given)
+        prior = checked_prior(self.prior, given, names=column_names(theta_sim))
         for name, other in (("integration", "qmc"), ("sampler", "mcmc")):
             one_parameter_rule(name, getattr(self, name), prior.dim, several=other)
         progress = Progress(self.verbose, "ModularBayesCalibrator")
@@ -465,6 +488,7 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
             X=X,
             y=Y[:, 0] if np.ndim(y) == 1 else Y,
             Y_ndim=np.ndim(y),
+            responses=responses,
             prior=prior,
             sims=sims,
             **run_modules(self, X, Y, sims, prior, ranges, seeds[1:], progress),
@@ -488,12 +512,14 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         Parameters
         ----------
         theta : array-like of shape (r,) or (m, r)
+            A DataFrame's columns are matched to ``parameter_names_``.
 
         Returns
         -------
         float or ndarray of shape (m,)
         """
         check_is_fitted(self, "theta_mean_")
+        theta = match_columns(theta, self.parameter_names_, "theta", "the parameters")
         theta = np.asarray(theta, dtype=float)
         single = theta.ndim == 1
         theta = np.atleast_2d(theta)

@@ -5,14 +5,11 @@ simulations into what the fast preposterior analysis needs, here, before
 any emulator is fitted: the prior of ``theta`` and the layout of ``X``
 (:func:`designer_prior`), the priors the synthetic field data are drawn
 from (:func:`synthetic_data_priors`), the planned field inputs
-(:func:`field_design`), and the names of the responses
-(:func:`column_names`, :func:`response_index`).
+(:func:`field_design`).
 
 Examples
 --------
 >>> import numpy as np
->>> response_index("energy", ["tip", "energy"], 2)
-1
 >>> field_design(None, 4, np.array([[0.0], [10.0]]), seed=0).shape
 (4, 1)
 """
@@ -29,36 +26,6 @@ from skmba._simulations import RUNS_PER_INPUT
 #: Field design points when neither ``X_design`` nor ``n_design`` is given
 #: (section 6.3).
 DEFAULT_N_DESIGN = 25
-
-
-def column_names(y):
-    """The column names of a pandas DataFrame ``y`` (strings), else None."""
-    columns = getattr(y, "columns", None)
-    if columns is None or getattr(y, "ndim", 2) != 2:
-        return None
-    return [str(c) for c in columns]
-
-
-def response_index(item, names, q):
-    """A response's 0-based index from its index or its name in ``names``."""
-    if isinstance(item, str):
-        if names is None:
-            raise ValueError(
-                f"response {item!r} given by name, but the designer was fitted "
-                "on an array y without names: pass 0-based indices, or fit "
-                "with y as a pandas DataFrame whose columns name the responses."
-            )
-        if item not in names:
-            raise ValueError(
-                f"unknown response {item!r}; the responses are {list(names)}."
-            )
-        return names.index(item)
-    index = int(item)
-    if not 0 <= index < q:
-        raise ValueError(
-            f"response index {index} is out of range for {q} responses (0-based)."
-        )
-    return index
 
 
 def designer_prior(prior, calibrator, X):

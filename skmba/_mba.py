@@ -17,10 +17,12 @@ Examples
 """
 
 import time
+from collections.abc import Mapping
 
 import numpy as np
 from scipy import stats
 
+from skmba._columns import match_columns
 from skmba._discrepancy import check_discrepancy_ranges, fit_discrepancy, ranges_text
 from skmba._emulator import Standardizer, fit_emulator
 from skmba._hyperposterior import fit_hyperposterior
@@ -356,8 +358,29 @@ def _module3(
     )
 
 
-def checked_prior(prior, given):
-    """The checked prior; uniform over ``theta_sim`` when None."""
+def prior_names(prior):
+    """The parameter names of a dict prior (its keys), else None."""
+    return [str(name) for name in prior] if isinstance(prior, Mapping) else None
+
+
+def named_simulations(X_sim, theta_sim, y_sim, *, features, parameters, responses):
+    """The simulation tables with their columns in the field data's order.
+
+    ``features``, ``parameters`` and ``responses`` are the names of the
+    columns of ``X``, of the prior and of ``y`` (None: unnamed); a
+    DataFrame is reordered to them and arrays are left as they are (see
+    :func:`~skmba._columns.match_columns`).
+    """
+    return (
+        match_columns(X_sim, features, "X_sim", "the columns of X"),
+        match_columns(theta_sim, parameters, "theta_sim", "the keys of prior"),
+        match_columns(y_sim, responses, "y_sim", "the columns of y"),
+    )
+
+
+def checked_prior(prior, given, names=None):
+    """The checked prior; uniform over ``theta_sim`` when None, named by
+    ``names`` (the columns of a theta_sim table) when given."""
     if prior is not None:
         return check_prior(prior, None if given is None else given.theta.shape[1])
     if given is None:
@@ -366,8 +389,11 @@ def checked_prior(prior, given):
             "simulator: pass e.g. prior=[scipy.stats.uniform(lo, hi - lo)]."
         )
     t = given.theta
+    uniforms = [
+        stats.uniform(lo, hi - lo) for lo, hi in zip(t.min(0), t.max(0), strict=True)
+    ]
     return check_prior(
-        [stats.uniform(lo, hi - lo) for lo, hi in zip(t.min(0), t.max(0), strict=True)]
+        uniforms if names is None else dict(zip(names, uniforms, strict=True))
     )
 
 
@@ -375,6 +401,7 @@ def fitted_attributes(
     X,
     y,
     Y_ndim,
+    responses,
     prior,
     sims,
     scaler,
@@ -395,6 +422,7 @@ def fitted_attributes(
     out = {"_y_ndim": Y_ndim}
     out["prior_"] = prior
     out["parameter_names_"] = parameter_names(prior)
+    out["response_names_"] = responses
     out["X_obs_"], out["y_obs_"] = X, y
     out["X_sim_"], out["theta_sim_"], out["y_sim_"] = sims.X, sims.theta, sims.y
     out["simulation_failures_"] = list(sims.failures)

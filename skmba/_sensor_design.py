@@ -38,11 +38,10 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 from threadpoolctl import threadpool_limits
 
 from skmba._calibration import ModularBayesCalibrator
+from skmba._columns import column_names, response_index
 from skmba._design_inputs import (
-    column_names,
     designer_prior,
     field_design,
-    response_index,
     synthetic_data_priors,
 )
 from skmba._discrepancy import (

@@ -277,7 +277,8 @@ def given_simulations(X, q, X_sim, theta_sim, y_sim):
             ensure_min_samples=0,
             dtype=float,
         )
-        arrays[name] = A if A.ndim == 2 else A.reshape(-1, 1)
+        # C order whatever the input's (a DataFrame gives Fortran order).
+        arrays[name] = np.ascontiguousarray(A if A.ndim == 2 else A.reshape(-1, 1))
     X_sim, theta_sim, y_sim = arrays["X_sim"], arrays["theta_sim"], arrays["y_sim"]
     if not len(X_sim) == len(theta_sim) == len(y_sim):
         raise ValueError(

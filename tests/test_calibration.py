@@ -1142,3 +1142,112 @@ def test_sklearn_kernel_as_discrepancy_kernel_needs_no_extra_settings(treatment)
     assert isinstance(cal.discrepancy_kernel_, RBF)
     assert cal.discrepancy_kernel_.length_scale != 1.0
     assert np.all(np.isfinite(cal.theta_mean_))
+
+
+# ------------------------------------------------------------ named tables
+def _named_cantilever():
+    pd = pytest.importorskip("pandas")
+    data = make_cantilever(
+        36,
+        12,
+        design_variables=("force", "moment"),
+        parameters=("E", "I"),
+        snr_db=30,
+        random_state=0,
+    )
+    inputs, responses, parameters = ["F", "M"], ["tip", "energy"], ["E", "I"]
+    tables = dict(
+        X=pd.DataFrame(data.X_obs, columns=inputs),
+        y=pd.DataFrame(data.y_obs, columns=responses),
+        X_sim=pd.DataFrame(data.X_sim, columns=inputs),
+        theta_sim=pd.DataFrame(data.theta_sim, columns=parameters),
+        y_sim=pd.DataFrame(data.y_sim, columns=responses),
+    )
+    prior = dict(zip(parameters, data.prior, strict=True))
+    return data, tables, prior
+
+
+def _fit_tables(prior, X, y, **sims):
+    cal = ModularBayesCalibrator(
+        prior=prior,
+        n_chains=2,
+        n_samples=200,
+        burn_in=100,
+        n_restarts_optimizer=0,
+        random_state=0,
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return cal.fit(X, y, **sims)
+
+
+def test_simulation_tables_are_matched_by_column_name():
+    data, t, prior = _named_cantilever()
+    sims = {k: t[k] for k in ("X_sim", "theta_sim", "y_sim")}
+    ordered = _fit_tables(prior, t["X"], t["y"], **sims)
+    reversed_columns = {k: v.iloc[:, ::-1] for k, v in sims.items()}
+    shuffled = _fit_tables(prior, t["X"], t["y"], **reversed_columns)
+    arrays = _fit_tables(
+        list(data.prior),
+        data.X_obs,
+        data.y_obs,
+        X_sim=data.X_sim,
+        theta_sim=data.theta_sim,
+        y_sim=data.y_sim,
+    )
+    for other in (shuffled, arrays):
+        np.testing.assert_allclose(
+            other.theta_samples_, ordered.theta_samples_, rtol=1e-10, atol=0
+        )
+        X_new = t["X"][:3] if other is shuffled else data.X_obs[:3]
+        np.testing.assert_allclose(
+            other.predict(X_new), ordered.predict(t["X"][:3]), rtol=1e-10
+        )
+    assert list(ordered.feature_names_in_) == ["F", "M"]
+    assert ordered.response_names_ == ["tip", "energy"]
+    assert ordered.parameter_names_ == ["E", "I"]
+    assert arrays.response_names_ is None and not hasattr(arrays, "feature_names_in_")
+    # scikit-learn's rule at prediction: the fitted names, in their order.
+    with pytest.raises(ValueError, match="feature names should match"):
+        ordered.predict(t["X"][["M", "F"]])
+    # log_posterior matches a table's columns to the parameter names
+    theta = t["theta_sim"].iloc[:3]
+    np.testing.assert_array_equal(
+        ordered.log_posterior(theta[["I", "E"]]),
+        ordered.log_posterior(theta.to_numpy()),
+    )
+    # without a prior, the columns of theta_sim name the parameters
+    unnamed = _fit_tables(None, t["X"], t["y"], **reversed_columns)
+    assert unnamed.parameter_names_ == ["I", "E"]
+
+
+@pytest.mark.parametrize(
+    ("table", "columns", "match"),
+    [
+        (
+            "X_sim",
+            ["F", "moment"],
+            r"The columns of X_sim do not match the columns of X: X_sim lacks "
+            r"\['M'\] and has \['moment'\] besides",
+        ),
+        (
+            "theta_sim",
+            ["E", "J"],
+            r"The columns of theta_sim do not match the keys of prior: theta_sim "
+            r"lacks \['I'\] and has \['J'\] besides",
+        ),
+        (
+            "y_sim",
+            ["tip", "strain"],
+            r"The columns of y_sim do not match the columns of y: y_sim lacks "
+            r"\['energy'\] and has \['strain'\] besides \(the columns of y: \['tip', "
+            r"'energy'\]; y_sim: \['tip', 'strain'\]\)",
+        ),
+    ],
+)
+def test_simulation_tables_with_other_names_are_an_error(table, columns, match):
+    _, t, prior = _named_cantilever()
+    sims = {k: t[k] for k in ("X_sim", "theta_sim", "y_sim")}
+    sims[table] = sims[table].set_axis(columns, axis=1)
+    with pytest.raises(ValueError, match=match):
+        ModularBayesCalibrator(prior=prior).fit(t["X"], t["y"], **sims)

@@ -12,30 +12,11 @@ from scipy import stats
 
 from skmba._design_inputs import (
     DEFAULT_N_DESIGN,
-    column_names,
     designer_prior,
     field_design,
-    response_index,
     synthetic_data_priors,
 )
 from skmba._hyperprior import Hyperprior
-
-
-def test_column_names_of_a_dataframe_and_of_an_array():
-    pd = pytest.importorskip("pandas")
-    assert column_names(pd.DataFrame(np.zeros((2, 2)), columns=["a", 3])) == ["a", "3"]
-    assert column_names(pd.Series([1.0, 2.0], name="a")) is None
-    assert column_names(np.zeros((2, 2))) is None
-
-
-def test_response_index_by_name_and_by_index():
-    names = ["tip", "energy", "mid"]
-    assert [response_index(k, names, 3) for k in ("mid", 0, np.int64(1))] == [2, 0, 1]
-    assert response_index(2, None, 3) == 2
-    with pytest.raises(ValueError, match="fitted on an array y without names"):
-        response_index("tip", None, 3)
-    with pytest.raises(ValueError, match="response index -1 is out of range"):
-        response_index(-1, names, 3)
 
 
 def test_designer_prior_splits_X_and_takes_the_calibrators_prior():
