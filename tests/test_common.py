@@ -1,8 +1,14 @@
 """scikit-learn's estimator checks on every public estimator."""
 
+import warnings
+
 import numpy as np
+import pytest
 from scipy import stats
-from sklearn.utils.estimator_checks import parametrize_with_checks
+from sklearn.utils.estimator_checks import (
+    check_dataframe_column_names_consistency,
+    parametrize_with_checks,
+)
 
 from skmba import ModularBayesCalibrator, MultiResponseGP, PreposteriorDesigner
 
@@ -53,3 +59,19 @@ def expected_failed_checks(estimator):
 def test_sklearn_compatible_estimator(estimator, check):
     with np.errstate(all="ignore"):
         check(estimator)
+
+
+# scikit-learn's own check that an estimator fitted on a DataFrame records
+# feature_names_in_ and rejects other or reordered names at prediction; it
+# is not among parametrize_with_checks' checks (scikit-learn 1.9), so it
+# runs here, with pandas from the test extra.
+@pytest.mark.parametrize(
+    "estimator",
+    [MultiResponseGP(), SMALL_CALIBRATOR, SMALL_DESIGNER],
+    ids=["MultiResponseGP", "ModularBayesCalibrator", "PreposteriorDesigner"],
+)
+def test_dataframe_column_names_consistency(estimator):
+    pytest.importorskip("pandas")
+    with np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # small-design warnings
+        check_dataframe_column_names_consistency(type(estimator).__name__, estimator)
