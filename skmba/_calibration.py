@@ -20,12 +20,21 @@ from typing import ClassVar
 import numpy as np
 from sklearn.base import BaseEstimator, MultiOutputMixin, RegressorMixin
 from sklearn.gaussian_process.kernels import Kernel
-from sklearn.utils.validation import check_is_fitted, validate_data
+from sklearn.utils.validation import (
+    check_array,
+    check_consistent_length,
+    check_is_fitted,
+    validate_data,
+)
 from threadpoolctl import threadpool_limits
 
 from skmba._columns import column_names, match_columns
 from skmba._discrepancy import DISCREPANCY_OPTIMIZERS
-from skmba._field_data import check_field_data, warn_few_distinct_inputs
+from skmba._field_data import (
+    check_field_data,
+    measured_field_data,
+    warn_few_distinct_inputs,
+)
 from skmba._identifiability import warn_if_confounded
 from skmba._integration import (
     INTEGRATIONS,
@@ -245,7 +254,9 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         The column names of ``X`` when it is a DataFrame with string column
         names (scikit-learn's rule); only then.
     X_obs_, y_obs_ : ndarray
-        The field data of ``fit`` (for :meth:`to_inference_data`).
+        The field data of ``fit`` (for :meth:`to_inference_data`), without
+        the rows that had no measured response; NaN where a reading was not
+        taken.
     theta_nodes_, theta_weights_ : ndarray
         The posterior quadrature (only with quadrature).
     prior_ : skmba._priors.Prior
@@ -383,7 +394,9 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         X : array-like or DataFrame of shape (n, d)
             Field inputs (design variables) of the observations.
         y : array-like or DataFrame of shape (n,) or (n, q)
-            Field observations.
+            Field observations. NaN marks a reading that was not taken (a
+            sensor out): modules 2-4 use the measured entries, and a row
+            with no measured response is left out with a warning.
         X_sim, theta_sim, y_sim : array-like or DataFrame, optional
             A precomputed simulation dataset: inputs (N, d), parameters
             (N, r) and responses (N, q). DataFrames are matched by column
@@ -412,7 +425,8 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
             A parameter the data cannot tell from the discrepancy (see
             ``identifiability_``).
         UserWarning
-            Failed simulation runs (their count and errors); observation
+            Rows of ``y`` without any reading (left out); failed simulation
+            runs (their count and errors); observation
             inputs outside the range of the simulations; more
             than 2 % of the prior mass outside the simulated range of theta;
             poor MCMC diagnostics (R-hat, effective sample size).
@@ -447,7 +461,21 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         validate_parameter_table(self)
         check_field_data(X, y, self.discrepancy_regression)
         responses = column_names(y)
-        X, y = validate_data(self, X, y, multi_output=True, y_numeric=True)
+        X = validate_data(self, X)
+        # NaN in y is a reading not taken; scikit-learn's y check rejects it.
+        if y is None:
+            raise ValueError(
+                "ModularBayesCalibrator requires y to be passed, but the target y "
+                "is None: pass the field observations."
+            )
+        y = check_array(
+            y,
+            ensure_2d=False,
+            dtype=float,
+            ensure_all_finite="allow-nan",
+            input_name="y",
+        )
+        check_consistent_length(X, y)
         # Tables of simulations are matched to the field data and the prior
         # by their column names (arrays by position).
         X_sim, theta_sim, y_sim = named_simulations(
@@ -461,8 +489,10 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         # C order whatever the input's (a DataFrame gives Fortran order): the
         # same bits as from an array.
         X = np.ascontiguousarray(X, dtype=float)
-        warn_few_distinct_inputs(X, self.discrepancy_regression)
         Y = np.ascontiguousarray(y, dtype=float).reshape(len(X), -1)
+        X, Y = measured_field_data(X, Y, self.discrepancy_regression, responses)
+        y = Y[:, 0] if y.ndim == 1 else Y
+        warn_few_distinct_inputs(X, self.discrepancy_regression)
         q = Y.shape[1]
         # Before any simulation runs: a bad range must not waste them.
         ranges = module2_prior(self, X, q)

@@ -49,6 +49,9 @@ from skmba._linalg import (
     check_memory,
     cholesky,
     log_det_from_cholesky,
+    observed_block,
+    observed_entries,
+    observed_rows,
 )
 from skmba._progress import as_progress, start_reporter
 from skmba._regression import regression_basis
@@ -201,7 +204,8 @@ class DiscrepancyFit:
         bounds).
     X : ndarray of shape (n, d)
     Y : ndarray of shape (n, q)
-        Field data minus the integrated emulator mean.
+        Field data minus the integrated emulator mean; NaN marks an entry
+        that was not measured (the likelihood is that of the others).
     H : ndarray of shape (n, p)
         Discrepancy regression matrix.
     V_fixed : ndarray of shape (n q, n q)
@@ -241,7 +245,10 @@ class DiscrepancyFit:
         self.regression = regression
         self.restricted = restricted
         self.n, self.q = Y.shape
-        self.scale = np.maximum(Y.std(axis=0), 1e-8 * max(np.abs(Y).max(), 1e-300))
+        self.observed = observed_entries(Y)
+        self.scale = np.maximum(
+            np.nanstd(Y, axis=0), 1e-8 * max(np.nanmax(np.abs(Y)), 1e-300)
+        )
         if unit_scale:  # parameters in the units of Y (a prior is set in them)
             self.scale = np.ones(self.q)
         self.rows, self.cols = np.tril_indices(self.q, -1)
@@ -319,30 +326,39 @@ class DiscrepancyFit:
             R, dR = k(self.X), None
         sigma2 = L @ L.T + np.diag(self.floor)
         V = self.V_fixed + np.kron(sigma2, R) + np.kron(np.diag(lam), np.eye(n))
+        obs = self.observed
         C = cholesky(
-            V,
+            observed_block(V, obs),
             what="field-data covariance of module 2",
             remedy="Use another discrepancy kernel or a larger noise lower bound.",
         )
-        Xr = np.kron(np.eye(q), self.H)
-        y = self.Y.T.ravel()
+        Xr = observed_rows(np.kron(np.eye(q), self.H), obs)
+        y = observed_rows(self.Y.T.ravel(), obs)
+        m = len(y)
         Xw = linalg.solve_triangular(C, Xr, lower=True)
         yw = linalg.solve_triangular(C, y, lower=True)
         Q, G = linalg.qr(Xw, mode="economic")
         beta = linalg.solve_triangular(G, Q.T @ yw)
         rw = yw - Xw @ beta
-        ll = -0.5 * (n * q * LOG_2PI + log_det_from_cholesky(C) + rw @ rw)
+        ll = -0.5 * (m * LOG_2PI + log_det_from_cholesky(C) + rw @ rw)
         if self.restricted:
             ll -= 0.5 * (2.0 * np.sum(np.log(np.abs(np.diag(G)))) - len(G) * LOG_2PI)
         self.last = (k, sigma2, lam, beta.reshape(q, -1).T)
         if not eval_gradient:
             return ll
         alpha = linalg.solve_triangular(C, rw, lower=True, trans="T")
-        Vinv = linalg.cho_solve((C, True), np.eye(n * q))
+        Vinv = linalg.cho_solve((C, True), np.eye(m))
         if self.restricted:  # V^-1 -> V^-1 - V^-1 X (X' V^-1 X)^-1 X' V^-1
             W = linalg.solve_triangular(C, Q, lower=True, trans="T")
             Vinv -= W @ W.T
-        K = (np.outer(alpha, alpha) - Vinv).reshape(q, n, q, n)
+        # d ll = tr(K dV) / 2 over the observed block; the unobserved rows
+        # and columns of K are zero.
+        K = np.outer(alpha, alpha) - Vinv
+        if obs is not None:
+            K_full = np.zeros((n * q, n * q))
+            K_full[np.ix_(obs, obs)] = K
+            K = K_full
+        K = K.reshape(q, n, q, n)
         M = np.einsum("ab,aibj->ij", sigma2, K)
         g_kernel = 0.5 * (dR.reshape(n * n, -1).T @ M.ravel())
         g_sigma = 0.5 * np.einsum("aibj,ij->ab", K, R)
@@ -368,8 +384,15 @@ class DiscrepancyFit:
         return -out
 
     def start(self):
-        """Starting point: discrepancy and noise share the residual variance."""
-        cov = np.atleast_2d(np.cov(self.Y, rowvar=False, bias=True))
+        """Starting point: discrepancy and noise share the residual variance.
+
+        With unmeasured entries, each response's own variance (no
+        correlation between responses).
+        """
+        if self.observed is None:
+            cov = np.atleast_2d(np.cov(self.Y, rowvar=False, bias=True))
+        else:
+            cov = np.diag(np.nanvar(self.Y, axis=0))
         L0 = np.linalg.cholesky(0.5 * cov + 1e-3 * np.diag(self.scale**2))
         relative = 0.1 if self.fixed_noise is None else self.fixed_noise
         start = self.pack(self.kernel.theta, relative * self.scale**2, L0)

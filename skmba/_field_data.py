@@ -1,7 +1,9 @@
 """Checks of the field observations ``X`` (design variables) and ``y``.
 
 Shapes, sizes and finiteness before scikit-learn's own checks, so that the
-message names the argument and the fix.
+message names the argument and the fix. NaN in ``y`` marks a reading that
+was not taken (:func:`measured_field_data`); NaN in ``X`` and inf anywhere
+are errors.
 
 Examples
 --------
@@ -49,13 +51,62 @@ def check_field_data(X, y, discrepancy_regression):
             f"{discrepancy_regression!r} with {d} design variable(s). "
             "Add observations, or use a lower-order discrepancy_regression."
         )
-    for name, A in (("X", X), ("y", y)):
-        if A.dtype.kind in "biuf":  # others: validate_data names them
-            check_finite_rows(
-                A.reshape(n, -1),
-                f"Input {name}",
-                "remove these observations (the same rows of X and y) or impute them.",
+    if X.dtype.kind in "biuf":  # others: validate_data names them
+        check_finite_rows(
+            X,
+            "Input X",
+            "the inputs of every observation must be known; remove these rows "
+            "of X and y.",
+        )
+    if y.dtype.kind in "biuf":
+        infinite = np.flatnonzero(np.any(np.isinf(y.reshape(n, -1)), axis=1))
+        if infinite.size:
+            raise ValueError(
+                f"Input y contains inf in rows {infinite[:10].tolist()}: an "
+                "infinite reading is not a measurement. Set it to NaN (not "
+                "measured: the other responses of the row are still used) or "
+                "correct it."
             )
+
+
+def measured_field_data(X, Y, discrepancy_regression, names=None):
+    """The field data without rows where nothing was measured.
+
+    NaN in ``Y`` marks an entry that was not measured (a sensor out); the
+    modules use the measured entries. A row with no measured response is
+    dropped with a warning; a response measured fewer times than the
+    discrepancy's regression has terms is an error naming it.
+
+    Returns
+    -------
+    X, Y : ndarray
+        The rows with at least one measured response.
+    """
+    measured = np.isfinite(Y)
+    p_d = n_regression_terms(discrepancy_regression, X.shape[1])
+    counts = measured.sum(axis=0)
+    short = np.flatnonzero(counts <= p_d)
+    if short.size:
+        j = short[0]
+        label = f"response {names[j]!r}" if names else f"response {j} (column {j})"
+        raise ValueError(
+            f"{label} of y is measured {counts[j]} time(s): module 2 needs more "
+            f"measurements of each response than the {p_d} term(s) of "
+            f"discrepancy_regression={discrepancy_regression!r}. Remove the "
+            "response from y (and from the simulations) or measure it more."
+        )
+    empty = ~measured.any(axis=1)
+    if empty.any():
+        rows = np.flatnonzero(empty)
+        warnings.warn(
+            f"{rows.size} row(s) of y have no measured response (all NaN), rows "
+            f"{rows[:10].tolist()}{' ...' if rows.size > 10 else ''}: they are "
+            "left out, with their rows of X.",
+            UserWarning,
+            stacklevel=4,
+        )
+        X, Y = X[~empty], Y[~empty]
+    return X, Y
 
 
 def warn_few_distinct_inputs(X, discrepancy_regression):

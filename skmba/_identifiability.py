@@ -32,6 +32,7 @@ import warnings
 import numpy as np
 from scipy import linalg
 
+from skmba._linalg import observed_block, observed_rows
 from skmba._regression import regression_basis
 from skmba.exceptions import NonIdentifiabilityWarning
 
@@ -112,7 +113,13 @@ def identifiability(model, theta, hyperprior):
     big = hyperprior.sd_quantile(PROBE_LEVEL, q)
     K_d = np.kron(corr * np.outer(big, big), model.kernel_d(X_e))
     X_d = np.kron(np.eye(q), regression_basis(X_e, model.regression_d))
-    return information_ratio(J, V0, K_d, X_d)
+    obs = model.observed  # the measured entries only
+    return information_ratio(
+        observed_rows(J, obs),
+        observed_block(V0, obs),
+        observed_block(K_d, obs),
+        observed_rows(X_d, obs),
+    )
 
 
 def warn_if_confounded(values, names):

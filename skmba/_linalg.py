@@ -15,6 +15,10 @@ solve a system anywhere in the package.
   gradients cost O(N^3 + q^3) instead of O((Nq)^3).
 * :func:`check_memory` refuses, before anything is allocated, a planned
   allocation larger than the memory the machine has available.
+* :func:`observed_entries`, :func:`observed_rows` and
+  :func:`observed_block` restrict a field-data vector, its regression rows
+  and its covariance to the entries that were measured (field data with
+  gaps).
 
 Examples
 --------
@@ -433,3 +437,33 @@ class KroneckerEigen:
     def to_eigenbasis(self, Y):
         """``U' Y M``: the (N, q) coordinates in which ``V`` is diagonal."""
         return self.U.T @ Y @ self.M
+
+
+# ------------------------------------------------------------ missing entries
+def observed_entries(Y):
+    """Positions of the observed (finite) entries of ``vec(Y)``, or None.
+
+    ``vec`` is response-slowest, as every field-data vector of the package:
+    entry ``(i, j)`` of an (n, q) ``Y`` is position ``j n + i``. None when
+    every entry is observed: the callers then keep their full (and, where
+    they have one, Kronecker) path.
+
+    Examples
+    --------
+    >>> observed_entries(np.array([[1.0, np.nan], [2.0, 3.0]]))
+    array([0, 1, 3])
+    >>> observed_entries(np.ones((2, 2))) is None
+    True
+    """
+    mask = np.isfinite(np.asarray(Y, dtype=float)).T.ravel()
+    return None if mask.all() else np.flatnonzero(mask)
+
+
+def observed_rows(A, observed):
+    """The rows of ``A`` (indexed like ``vec(Y)``) at the observed entries."""
+    return A if observed is None else A[observed]
+
+
+def observed_block(S, observed):
+    """The block of the covariance ``S`` of ``vec(Y)`` between observed entries."""
+    return S if observed is None else S[np.ix_(observed, observed)]

@@ -67,11 +67,7 @@ class ModelMixture:
             self._S_fixed = np.stack([m.S_fixed for m in self.models])
         cond, model_term = conditional
         L = np.linalg.cholesky(self._S_fixed + model_term)
-        q = self.q
-        X_bot = np.hstack(
-            [np.kron(np.eye(q), cond.H_me()[0]), np.kron(np.eye(q), base.H_d)]
-        )
-        y_bot = (base.Y_e - cond.M()[0]).T.ravel()
+        X_bot, y_bot = base.field_data(cond)
         W = linalg.solve_triangular(
             L, np.column_stack([X_bot, y_bot])[None], lower=True
         )
@@ -89,7 +85,7 @@ class ModelMixture:
         proj = np.einsum("kmp,km->kp", Q, rhs)
         rss = base.rss_top_perp + np.sum(rhs**2, axis=1) - np.sum(proj**2, axis=1)
         log_det_S = 2.0 * np.sum(np.log(np.diagonal(L, axis1=1, axis2=2)), axis=1)
-        M = (base.N + base.n) * q
+        M = base.N * self.q + base.n_observed
         return -0.5 * (
             (M - P) * LOG_2PI
             + base.log_det_A

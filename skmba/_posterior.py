@@ -56,6 +56,9 @@ from skmba._linalg import (
     FactorizationError,
     cholesky,
     log_det_from_cholesky,
+    observed_block,
+    observed_entries,
+    observed_rows,
 )
 from skmba._progress import as_progress
 from skmba._regression import regression_basis
@@ -88,12 +91,13 @@ class Whitened:
     theta: np.ndarray
     P_e: np.ndarray  # field inputs with theta appended, (n, d + r)
     Rt: np.ndarray  # C_m^-1 R_m(D_m, D_e(theta)), (N, n)
-    L_S: np.ndarray  # Cholesky factor of the Schur complement, (nq, nq)
+    # The field block has one row per measured entry of vec(Y_e), m <= nq.
+    L_S: np.ndarray  # Cholesky factor of the Schur complement, (m, m)
     G: np.ndarray  # R factor of the stacked whitened regression matrix, (P, P)
     beta: np.ndarray  # GLS estimate, (P,)
     resid_top: np.ndarray  # whitened residual, simulation block, (Nq,)
-    resid_bot: np.ndarray  # whitened residual, field block, (nq,)
-    X_bot: np.ndarray  # L_S^-1 times the field rows of H_Y, (nq, P)
+    resid_bot: np.ndarray  # whitened residual, field block, (m,)
+    X_bot: np.ndarray  # L_S^-1 times the field rows of H_Y, (m, P)
     log_likelihood: float
 
 
@@ -114,7 +118,9 @@ class GlobalModel:
     X_e : ndarray of shape (n, d)
         Standardised field inputs.
     Y_e : ndarray of shape (n, q)
-        Standardised field data.
+        Standardised field data; NaN marks an entry that was not measured.
+        The field block is then restricted to the measured entries
+        (``observed``), at the cost of one more index per factorisation.
     discrepancy : DiscrepancyFit
         The fitted module-2 discrepancy (``kernel_``, ``regression``,
         ``sigma2``, ``noise``).
@@ -137,6 +143,9 @@ class GlobalModel:
         N, q = self.Y_m.shape
         n = len(X_e)
         self.N, self.n, self.q = N, n, q
+        # The measured entries of vec(Y_e) (None: all), and their number.
+        self.observed = observed_entries(Y_e)
+        self.n_observed = n * q if self.observed is None else len(self.observed)
         self.p_m = emulator.H_white.shape[1]
         self.H_d = regression_basis(X_e, self.regression_d)
         self.p_d = self.H_d.shape[1]
@@ -162,8 +171,10 @@ class GlobalModel:
         self.kernel_d = discrepancy.kernel_
         self.sigma2_d = discrepancy.sigma2
         self.noise = np.asarray(discrepancy.noise, dtype=float)
-        self.S_fixed = np.kron(self.sigma2_d, self.kernel_d(self.X_e)) + np.kron(
-            np.diag(self.noise), np.eye(self.n)
+        self.S_fixed = observed_block(
+            np.kron(self.sigma2_d, self.kernel_d(self.X_e))
+            + np.kron(np.diag(self.noise), np.eye(self.n)),
+            self.observed,
         )
         self._cache = None
 
@@ -188,7 +199,18 @@ class GlobalModel:
         depend on the module-2 hyperparameters.
         """
         cond = self.emulator.conditional(self.X_e, np.ravel(theta)[None, :])
-        return cond, np.kron(self.sigma2_m, cond.correlation(self.nugget)[0])
+        model_term = np.kron(self.sigma2_m, cond.correlation(self.nugget)[0])
+        return cond, observed_block(model_term, self.observed)
+
+    def field_data(self, cond):
+        """The field rows of ``H_Y`` and the field data minus the emulator's
+        conditional mean, at the measured entries (unwhitened)."""
+        q = self.q
+        X_bot = np.hstack(
+            [np.kron(np.eye(q), cond.H_me()[0]), np.kron(np.eye(q), self.H_d)]
+        )  # (nq, P)
+        y_bot = (self.Y_e - cond.M()[0]).T.ravel()
+        return observed_rows(X_bot, self.observed), observed_rows(y_bot, self.observed)
 
     def whiten(self, theta, conditional=None):
         """Factor the global model at ``theta`` (cached for the last theta).
@@ -201,15 +223,12 @@ class GlobalModel:
         cache = self._cache  # one read: another thread may replace it
         if cache is not None and np.array_equal(cache.theta, theta):
             return cache
-        N, n, q = self.N, self.n, self.q
+        N, q = self.N, self.q
         cond, model_term = conditional or self.conditional(theta)
         S = self.S_fixed + model_term
         L_S = cholesky(S, what="Schur complement S(theta)", remedy=_S_REMEDY)
         # Field rows of H_Y minus B'A^-1 times the simulation rows, whitened.
-        X_bot = np.hstack(
-            [np.kron(np.eye(q), cond.H_me()[0]), np.kron(np.eye(q), self.H_d)]
-        )  # (nq, P)
-        y_bot = (self.Y_e - cond.M()[0]).T.ravel()
+        X_bot, y_bot = self.field_data(cond)
         X_bot = linalg.solve_triangular(L_S, X_bot, lower=True)
         y_bot = linalg.solve_triangular(L_S, y_bot, lower=True)
         stacked = np.vstack([self.G_top, X_bot])
@@ -222,7 +241,7 @@ class GlobalModel:
         resid_bot = y_bot - X_bot @ beta
         resid_top = self.y_top - self.X_top_full @ beta
         rss = float(resid_top @ resid_top + resid_bot @ resid_bot)
-        M = (N + n) * q
+        M = N * q + self.n_observed
         log_likelihood = -0.5 * (
             (M - self.P) * LOG_2PI
             + self.log_det_A
@@ -249,8 +268,9 @@ class GlobalModel:
         """``log p(Y | theta, D, phi)`` with ``beta`` integrated out (Eq. 4.30).
 
         It includes every constant, ``(2 pi)^-(M - P)/2 |V_Y|^-1/2
-        |H_Y' V_Y^-1 H_Y|^-1/2 exp(-rss/2)`` with ``M = (N + n) q`` data and
-        ``P`` regression coefficients, so that it equals the dense formula.
+        |H_Y' V_Y^-1 H_Y|^-1/2 exp(-rss/2)`` with ``M = N q + m`` data (``m``
+        measured field entries, ``n q`` without gaps) and ``P`` regression
+        coefficients, so that it equals the dense formula.
         """
         return self.whiten(theta).log_likelihood
 

@@ -28,7 +28,7 @@ from joblib import Parallel, delayed
 from scipy import linalg
 from threadpoolctl import threadpool_limits
 
-from skmba._linalg import FLOAT_BYTES, check_memory, n_workers
+from skmba._linalg import FLOAT_BYTES, check_memory, n_workers, observed_rows
 from skmba._regression import regression_basis
 from skmba._validation import seed_sequence
 
@@ -152,7 +152,7 @@ def conditional_moments(model, theta, X, component, return_var=True):
         prior_diag += np.outer(model.kernel_d.diag(X), np.diag(model.sigma2_d))
     if component == "observation":
         prior_diag += model.noise
-    bot = linalg.solve_triangular(w.L_S, bot, lower=True)
+    bot = linalg.solve_triangular(w.L_S, observed_rows(bot, model.observed), lower=True)
     h = np.hstack([np.kron(np.eye(q), h_m), np.kron(np.eye(q), h_d)])  # (sq, P)
     mean = h @ w.beta + top.T @ w.resid_top + bot.T @ w.resid_bot
     mean = mean.reshape(q, s).T

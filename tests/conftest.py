@@ -81,6 +81,9 @@ def _dense_global(problem, theta, component=None, X_star=None):
         ]
     )
     y = np.concatenate([Y_m.T.ravel(), Y_e.T.ravel()])
+    # Unmeasured field entries (NaN): their rows and columns are left out.
+    keep = np.isfinite(y)
+    V, H, y = V[np.ix_(keep, keep)], H[keep], y[keep]
     Vi = np.linalg.inv(V)
     W = np.linalg.inv(H.T @ Vi @ H)
     beta = W @ H.T @ Vi @ y
@@ -116,10 +119,22 @@ def _dense_global(problem, theta, component=None, X_star=None):
         prior = np.kron(S_m, km(P_s)) + np.kron(sigma2_d, kd(X_star))
         if component == "observation":
             prior = prior + np.kron(np.diag(noise), np.eye(s))
+    Vs = Vs[keep]
     mean = h @ beta + Vs.T @ Vi @ r
     U = h.T - H.T @ Vi @ Vs
     cov = prior - Vs.T @ Vi @ Vs + U.T @ W @ U
     return mean.reshape(q, s).T, np.diag(cov).reshape(q, s).T
+
+
+@pytest.fixture
+def gapped_problem(problem):
+    """``problem`` with three field entries unmeasured (NaN), one of them
+    the only gap of its row; the global model is built on the gapped data."""
+    gp, gm, X_m, Y_m, X_e, Y_e, sigma2_d, noise = problem
+    Y_e = Y_e.copy()
+    Y_e[[0, 2, 5], [1, 0, 0]] = np.nan
+    gm = GlobalModel(gm.emulator, X_e, Y_e, discrepancy(sigma2_d, noise))
+    return gp, gm, X_m, Y_m, X_e, Y_e, sigma2_d, noise
 
 
 @pytest.fixture(scope="session")

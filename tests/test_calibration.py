@@ -168,7 +168,8 @@ BAD_INPUT = [
     case(
         "X-nan",
         ValueError,
-        r"Input X contains NaN or inf in rows \[0\]: remove these observations",
+        r"Input X contains NaN or inf in rows \[0\]: the inputs of every "
+        r"observation must be known; remove these rows of X and y",
         X=with_value(BAD.X_obs, (0, 0), np.nan),
     ),
     case(
@@ -178,16 +179,34 @@ BAD_INPUT = [
         X=with_value(BAD.X_obs, (4, 0), np.inf),
     ),
     case(
-        "y-nan",
-        ValueError,
-        r"Input y contains NaN or inf in rows \[3\]: remove .* or impute",
-        y=with_value(BAD.y_obs, (3, 1), np.nan),
-    ),
-    case(
         "y-minus-inf",
         ValueError,
-        r"Input y contains NaN or inf in rows \[0\]",
+        r"Input y contains inf in rows \[0\]: an infinite reading is not a "
+        r"measurement. Set it to NaN \(not measured",
         y=with_value(BAD.y_obs, (0, 0), -np.inf),
+    ),
+    case(
+        "y-row-without-any-reading",
+        UserWarning,
+        r"1 row\(s\) of y have no measured response \(all NaN\), rows \[3\]: "
+        r"they are left out, with their rows of X",
+        y=with_value(BAD.y_obs, (3, slice(None)), np.nan),
+    ),
+    case(
+        "y-response-never-measured",
+        ValueError,
+        r"response 1 \(column 1\) of y is measured 0 time\(s\): module 2 needs "
+        r"more measurements of each response than the 1 term\(s\) of "
+        r"discrepancy_regression='constant'. Remove the response",
+        y=with_value(BAD.y_obs, (slice(None), 1), np.nan),
+    ),
+    case(
+        "y-response-measured-too-rarely-for-the-regression",
+        ValueError,
+        r"response 0 \(column 0\) of y is measured 2 time\(s\): .* than the 2 "
+        r"term\(s\) of discrepancy_regression='linear'",
+        params=dict(discrepancy_regression="linear"),
+        y=with_value(BAD.y_obs, (slice(2, None), 0), np.nan),
     ),
     case(
         "X_sim-nan",
@@ -1251,3 +1270,31 @@ def test_simulation_tables_with_other_names_are_an_error(table, columns, match):
     sims[table] = sims[table].set_axis(columns, axis=1)
     with pytest.raises(ValueError, match=match):
         ModularBayesCalibrator(prior=prior).fit(t["X"], t["y"], **sims)
+
+
+# ------------------------------------------------------------ missing readings
+def test_a_row_without_readings_is_left_out_and_gaps_use_the_rest():
+    data = make_cantilever(30, 12, snr_db=30, random_state=2)
+    y = data.y_obs.copy()
+    y[4] = np.nan  # every sensor out
+    y[[1, 7], [0, 1]] = np.nan  # one sensor out at a time
+    params = dict(prior=data.prior, n_restarts_optimizer=0, random_state=0)
+    sims = dict(X_sim=data.X_sim, theta_sim=data.theta_sim, y_sim=data.y_sim)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", NonIdentifiabilityWarning)
+        with pytest.warns(UserWarning, match=r"rows \[4\]: they are left out"):
+            gapped = ModularBayesCalibrator(**params).fit(data.X_obs, y, **sims)
+        keep = np.arange(12) != 4
+        dropped = ModularBayesCalibrator(**params).fit(
+            data.X_obs[keep], y[keep], **sims
+        )
+        full = ModularBayesCalibrator(**params).fit(data.X_obs, data.y_obs, **sims)
+    # Leaving the empty row out is what the calibrator does itself.
+    np.testing.assert_array_equal(gapped.theta_samples_, dropped.theta_samples_)
+    assert gapped.X_obs_.shape == (11, 1) and np.isnan(gapped.y_obs_).sum() == 2
+    # The two single gaps cost a little information, and move theta little.
+    sd, sd_full = np.sqrt(gapped.theta_cov_[0, 0]), np.sqrt(full.theta_cov_[0, 0])
+    assert abs(gapped.theta_mean_[0] - full.theta_mean_[0]) < sd_full
+    assert 0.95 * sd_full < sd < 2 * sd_full
+    mean, std = gapped.predict(data.X_obs[[1, 7]], return_std=True)
+    assert np.all(np.isfinite(mean)) and np.all(std > 0)

@@ -97,3 +97,58 @@ def test_variance_bounds_hold_exactly_with_a_free_correlation(problem):
     plain = DiscrepancyFit(Gauss([1.0, 2.0]), X, Y, np.ones((15, 1)), V_fixed)
     plain.optimize(n_restarts=1, random_state=0)
     assert plain.log_likelihood >= fit.log_likelihood - 1e-8
+
+
+def _with_gaps(Y):
+    """``Y`` with a few entries unmeasured (NaN), no response left empty."""
+    Y = Y.copy()
+    Y[[0, 3, 3, 7, 11], [0, 1, 2, 0, 2]] = np.nan
+    return Y
+
+
+def _dense_log_likelihood(fit, x, restricted):
+    """The (restricted) Gaussian log-likelihood of the measured entries of
+    vec(Y), from the dense covariance restricted to them."""
+    theta, lam, L = fit.unpack(x)
+    n, q = fit.n, fit.q
+    R = fit.kernel.clone_with_theta(theta)(fit.X)
+    V = fit.V_fixed + np.kron(L @ L.T, R) + np.kron(np.diag(lam), np.eye(n))
+    keep = np.isfinite(fit.Y.T.ravel())
+    V, y = V[np.ix_(keep, keep)], fit.Y.T.ravel()[keep]
+    Xr = np.kron(np.eye(q), fit.H)[keep]
+    Vi_X = np.linalg.solve(V, Xr)
+    beta = np.linalg.solve(Xr.T @ Vi_X, Vi_X.T @ y)
+    r = y - Xr @ beta
+    _, logdet = np.linalg.slogdet(V)
+    ll = -0.5 * (keep.sum() * np.log(2 * np.pi) + logdet + r @ np.linalg.solve(V, r))
+    if restricted:
+        _, logdet_w = np.linalg.slogdet(Xr.T @ Vi_X)
+        ll -= 0.5 * (logdet_w - Xr.shape[1] * np.log(2 * np.pi))
+    return ll
+
+
+@pytest.mark.parametrize("restricted", [False, True])
+def test_unmeasured_entries_give_the_likelihood_of_the_measured_ones(
+    problem, restricted
+):
+    X, Y, V_fixed = problem
+    fit = DiscrepancyFit(
+        Gauss([1.0, 2.0]),
+        X,
+        _with_gaps(Y),
+        np.ones((15, 1)),
+        V_fixed,
+        restricted=restricted,
+    )
+    assert fit.observed.size == Y.size - 5
+    x = fit.start() + 0.1 * np.random.default_rng(2).normal(size=fit.start().size)
+    assert fit.evaluate(x, False) == pytest.approx(
+        _dense_log_likelihood(fit, x, restricted), rel=1e-10
+    )
+    assert_gradient_is_the_likelihood_slope(fit, x)
+    full = DiscrepancyFit(
+        Gauss([1.0, 2.0]), X, Y, np.ones((15, 1)), V_fixed, restricted=restricted
+    )
+    assert full.evaluate(x, False) == pytest.approx(
+        _dense_log_likelihood(full, x, restricted), rel=1e-10
+    )

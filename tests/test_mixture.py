@@ -29,8 +29,9 @@ def _draws(K=4, seed=0):
 
 
 @pytest.mark.parametrize("theta", [-0.7, 0.1, 0.9])
-def test_stacked_equals_each_component(problem, dense_global, theta):
-    gm = problem[1]
+@pytest.mark.parametrize("data", ["problem", "gapped_problem"])
+def test_stacked_equals_each_component(request, theta, data):
+    gm = request.getfixturevalue(data)[1]
     draws = _draws()
     mix = ModelMixture(gm, draws)
     t = np.array([theta])
@@ -49,7 +50,9 @@ def test_stacked_equals_each_component(problem, dense_global, theta):
     )
 
 
-def test_one_draw_is_the_plug_in_model(problem, dense_global):
+@pytest.mark.parametrize("data", ["problem", "gapped_problem"])
+def test_one_draw_is_the_plug_in_model(request, dense_global, data):
+    problem = request.getfixturevalue(data)
     gm = problem[1]
     comp = DiscrepancyComponent(gm.kernel_d, gm.sigma2_d, gm.noise, "constant")
     mix = ModelMixture(gm, HyperposteriorDraws(None, [comp], np.zeros(1), None))

@@ -9,7 +9,11 @@ from skmba._prediction import PredictionRule, conditional_moments
 @pytest.mark.parametrize(
     "component", ["model", "discrepancy", "reality", "observation"]
 )
-def test_conditional_predictions_equal_dense_kriging(problem, dense_global, component):
+@pytest.mark.parametrize("data", ["problem", "gapped_problem"])
+def test_conditional_predictions_equal_dense_kriging(
+    request, dense_global, component, data
+):
+    problem = request.getfixturevalue(data)
     gm = problem[1]
     X_star = np.array([[-0.5], [0.2], [0.75]])
     mean_d, var_d = dense_global(problem, 0.3, component, X_star)
