@@ -31,6 +31,7 @@ from skmba._gp_checks import (
     check_magnitudes,
     check_rows,
     check_sample_size,
+    warn_at_bounds,
 )
 from skmba._gp_noisy import fit_noisy
 from skmba._gp_search import (
@@ -109,9 +110,11 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
         Correlation function: any kernel with unit diagonal, e.g. the DACE
         families of :mod:`skmba.kernels` or sklearn's ``RBF``/``Matern`` and
         products of them. ``None`` uses an anisotropic :class:`~skmba.kernels.Gauss`
-        whose starting roughness is ``1 / range_j^2`` per input with bounds
-        ``1e-4`` to ``1e4`` times that. Variances are not part of the kernel:
-        they are ``sigma2_`` (and ``noise_``).
+        whose starting roughness is ``10 / range_j^2`` per input with bounds
+        ``1e-4 / range_j^2`` to ``1e4 / range_j^2``, so that raw inputs in
+        any units start alike. Variances are not part of the kernel: they
+        are ``sigma2_`` (and ``noise_``). A fitted hyperparameter on a bound
+        of its search gives a ``ConvergenceWarning``.
     regression : {"constant", "linear", "quadratic"}, default="constant"
         Polynomial mean (regpoly0/1/2).
     noise : bool, default=False
@@ -369,6 +372,8 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
             fit_path = fit_noisy if self.noise else fit_noise_free
             self.kernel_, self.likelihood_ = fit_path(problem, kernel)
             self.nugget_ = problem.nugget
+            if self.optimizer is not None:
+                warn_at_bounds(self.kernel_, stacklevel=4)
         self._set_user_attributes(Y.shape[1], p)
         return self
 

@@ -5,7 +5,8 @@ own checks let through but that no Gaussian process can be fitted to: values
 whose squares overflow float64, too few samples for the regression terms or
 for the response covariance, identical inputs, regression terms that the
 inputs cannot identify and, without noise, duplicated inputs with different
-responses.
+responses. After the fit, :func:`warn_at_bounds` reports hyperparameters
+held by a bound of their search.
 
 Examples
 --------
@@ -20,6 +21,7 @@ ValueError: n_samples=2 is too few for regression='linear' ... 3 samples are nee
 import warnings
 
 import numpy as np
+from sklearn.exceptions import ConvergenceWarning
 
 # Inputs and responses beyond this magnitude overflow float64 when squared.
 _MAX_MAGNITUDE = 1e150
@@ -161,3 +163,43 @@ def check_covariance_size(n, q, p, regression):
             "response_nugget (e.g. 1e-8), fit fewer responses at once, or "
             "use noise=True."
         )
+
+
+def warn_at_bounds(kernel, stacklevel=2):
+    """A ``ConvergenceWarning`` per optimised hyperparameter on a bound.
+
+    As scikit-learn's ``GaussianProcessRegressor``: a value within
+    ``numpy.isclose`` of a bound of its (log) search interval may be held
+    there by the bound rather than by the data. Fixed hyperparameters are
+    not reported.
+    """
+    theta, bounds = kernel.theta, kernel.bounds
+    k = 0
+    for hyp in kernel.hyperparameters:
+        if hyp.fixed:
+            continue
+        for dim in range(hyp.n_elements):
+            value, (lo, hi) = np.exp(theta[k]), np.exp(bounds[k])
+            k += 1
+            if np.isclose(theta[k - 1], bounds[k - 1, 0]):
+                side, bound = "lower", lo
+                meaning = (
+                    "the responses hardly vary with this input over its range "
+                    "(harmless if it has no effect)"
+                )
+            elif np.isclose(theta[k - 1], bounds[k - 1, 1]):
+                side, bound = "upper", hi
+                meaning = (
+                    "the training points are too far apart, in this input, to "
+                    "inform each other (more points, or an input on another scale)"
+                )
+            else:
+                continue
+            warnings.warn(
+                f"The fitted {hyp.name} of input {dim} ({value:.4g}) is at the "
+                f"{side} bound {bound:.4g} of its search: {meaning}. Widen the "
+                f"kernel's bounds ({hyp.name}_bounds) or rescale the input if "
+                "the likelihood may want a value beyond it.",
+                ConvergenceWarning,
+                stacklevel=stacklevel,
+            )

@@ -1063,3 +1063,21 @@ def test_a_generator_seeds_the_restarts_and_gives_the_same_fit_twice():
     np.testing.assert_array_equal(fits[0].predict(X), fits[1].predict(X))
     draws = [f.sample_y(X, 2, random_state=np.random.default_rng(4)) for f in fits]
     np.testing.assert_array_equal(*draws)
+
+
+def test_a_roughness_held_by_a_bound_warns_naming_the_input():
+    # The response ignores input 1: its roughness falls to the lower bound.
+    rng = np.random.default_rng(0)
+    X = rng.uniform(0, 1, size=(30, 2))
+    y = np.sin(6 * X[:, 0])
+    with pytest.warns(
+        ConvergenceWarning,
+        match=r"The fitted roughness of input 1 \(.*\) is at the lower bound .* the "
+        r"responses hardly vary with this input",
+    ) as record:
+        MultiResponseGP().fit(X, y)
+    assert len(record) == 1 and record[0].filename == __file__
+    # no search, no warning
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ConvergenceWarning)
+        MultiResponseGP(Gauss([1.0, 1e-3]), optimizer=None).fit(X, y)

@@ -107,7 +107,7 @@ def test_calibrator_shows_the_simulator_runs_and_each_module(capsys):
     assert captured.out == ""
     err = captured.err
     assert re.search(r"\[ModularBayesCalibrator\] simulator: 100%.* 30/30 ", err)
-    assert re.search(r"simulator: 30 runs in [\d.]+ s\n", err)
+    assert re.search(r"simulator: 30 runs in 1 call\(s\), 0 failed, [\d.]+ s\n", err)
     assert "[ModularBayesCalibrator] emulator of 30 simulations: 100%" in err
     assert "[ModularBayesCalibrator] module 2: discrepancy: 100%" in err
     assert "module 1 done in" in err and "module 3 done in" in err

@@ -21,6 +21,10 @@ def test_quick_start_runs():
     assert 0.05e3 < sd < 0.5e3 and abs(cal.theta_mean_[0] - 70e3) > 5 * sd
     assert cal.identifiability_[0] < 0.05
     assert namespace["std"].shape == (3, 2)
+    # the kernel search on raw inputs, scaled in the pipeline
+    search = namespace["search"]
+    assert search.best_params_ == {"multiresponsegp__kernel": None}
+    assert search.score(namespace["X_te"], namespace["y_te"]) > 0.99999
     gp = namespace["gp"]
     assert gp.sigma2_.shape == (2, 2)
     # the comment in the README promises noise close to [1e-4, 2.5e-3]
