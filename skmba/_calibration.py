@@ -513,7 +513,7 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
                 f"{prior.dim} parameters."
             )
         check_simulation_design(X, prior, sims)
-        check_response_ranges(Y, sims.y)
+        check_response_ranges(Y, sims.y, responses)
         return dict(
             X=X,
             y=Y[:, 0] if np.ndim(y) == 1 else Y,

@@ -362,14 +362,15 @@ def check_design_size(n_total, regression, k, *, failed=None):
 RESPONSE_RANGE_FACTOR = 1.0
 
 
-def check_response_ranges(y, y_sim):
+def check_response_ranges(y, y_sim, names=None):
     """Warn when a response's observations lie far outside its simulations.
 
     The usual cause is a unit mismatch (mm against m, kN against N): the
     discrepancy would otherwise absorb a factor of 1000 without a word.
     A response is suspicious when the median of its (finite) observations
     lies outside the range of its simulations by more than
-    :data:`RESPONSE_RANGE_FACTOR` times that range's width.
+    :data:`RESPONSE_RANGE_FACTOR` times that range's width. ``names`` (the
+    columns of a DataFrame ``y``) name the response in the message.
 
     Examples
     --------
@@ -393,7 +394,10 @@ def check_response_ranges(y, y_sim):
             continue
         typical_sim = float(np.median(np.abs(y_sim[:, j])))
         ratio = abs(median) / typical_sim if typical_sim > 0 else np.inf
-        name = "the response" if y_sim.shape[1] == 1 else f"response {j}"
+        if names is not None:
+            name = f"response {names[j]!r}"
+        else:
+            name = "the response" if y_sim.shape[1] == 1 else f"response {j}"
         warnings.warn(
             f"The observations of {name} (column {j} of y) lie far outside "
             f"the range of its simulations [{lo[j]:.4g}, {hi[j]:.4g}]: their "

@@ -10,6 +10,7 @@ from skmba._simulations import (
     SimulationData,
     SimulationFailure,
     check_failed_runs,
+    check_response_ranges,
     given_simulations,
     run_simulator,
 )
@@ -174,3 +175,17 @@ def test_a_simulator_failing_on_a_fifth_of_the_runs_still_recovers_E():
     assert abs(cal.theta_mean_[0] - clean.theta_mean_[0]) < 0.5 * np.sqrt(
         clean.theta_cov_[0, 0]
     )
+
+
+def test_a_unit_slip_is_named_by_the_response_name():
+    y_sim = np.column_stack([np.linspace(1.0, 2.0, 20), np.linspace(-3.0, 3.0, 20)])
+    y = y_sim[::2].copy()
+    y[:, 1] *= 1000.0  # the second gauge in another unit
+    y[3, 1] = np.nan  # a gap does not hide it
+    with pytest.warns(
+        UserWarning,
+        match=r"The observations of response 'energy' \(column 1 of y\) lie far "
+        r"outside the range of its simulations",
+    ) as record:
+        check_response_ranges(y, y_sim, ["tip", "energy"])
+    assert len(record) == 1
