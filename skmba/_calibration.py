@@ -20,6 +20,7 @@ from typing import ClassVar
 import numpy as np
 from sklearn.base import BaseEstimator, MultiOutputMixin, RegressorMixin
 from sklearn.gaussian_process.kernels import Kernel
+from sklearn.metrics import r2_score
 from sklearn.utils.validation import (
     check_array,
     check_consistent_length,
@@ -655,6 +656,41 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         std : ndarray, same shape (only when ``return_std``)
         """
         return self._predict_component(X, "observation", return_std)
+
+    def score(self, X, y, sample_weight=None):
+        """R² of :meth:`predict` on ``y``, over the measured entries.
+
+        scikit-learn's ``r2_score`` averaged uniformly over the responses;
+        NaN in ``y`` (readings not taken) are left out response by response,
+        so that field data with gaps can be scored.
+
+        Parameters
+        ----------
+        X : array-like of shape (s, d)
+        y : array-like of shape (s,) or (s, q)
+        sample_weight : array-like of shape (s,), default=None
+
+        Returns
+        -------
+        float
+        """
+        y = check_array(
+            y,
+            ensure_2d=False,
+            dtype=float,
+            ensure_all_finite="allow-nan",
+            input_name="y",
+        )
+        pred = np.asarray(self.predict(X), dtype=float).reshape(len(y), -1)
+        Y = y.reshape(len(y), -1)
+        w = None if sample_weight is None else np.asarray(sample_weight, dtype=float)
+        scores = []
+        for j in range(Y.shape[1]):
+            m = np.isfinite(Y[:, j])
+            scores.append(
+                r2_score(Y[m, j], pred[m, j], sample_weight=None if w is None else w[m])
+            )
+        return float(np.mean(scores))
 
     def predict_reality(self, X, return_std=False):
         """Prediction of the true process ``y_m(x, theta) + delta(x)`` (no noise)."""

@@ -18,6 +18,7 @@ from scipy import stats
 from sklearn.base import clone
 from sklearn.exceptions import ConvergenceWarning
 from sklearn.gaussian_process.kernels import RBF, ConstantKernel
+from sklearn.metrics import r2_score
 
 import skmba._discrepancy as discrepancy_module
 import skmba._integration as integration_module
@@ -1298,3 +1299,11 @@ def test_a_row_without_readings_is_left_out_and_gaps_use_the_rest():
     assert 0.95 * sd_full < sd < 2 * sd_full
     mean, std = gapped.predict(data.X_obs[[1, 7]], return_std=True)
     assert np.all(np.isfinite(mean)) and np.all(std > 0)
+    # score: scikit-learn's R2 without gaps, per measured entries with them
+    pred = full.predict(data.X_obs)
+    assert full.score(data.X_obs, data.y_obs) == pytest.approx(
+        r2_score(data.y_obs, pred), rel=1e-12
+    )
+    m0, m1 = np.isfinite(y[:, 0]), np.isfinite(y[:, 1])
+    expected = 0.5 * (r2_score(y[m0, 0], pred[m0, 0]) + r2_score(y[m1, 1], pred[m1, 1]))
+    assert full.score(data.X_obs, y) == pytest.approx(expected, rel=1e-12)
