@@ -4,8 +4,9 @@ Monitoring data come as tables with named sensors, and the simulations as
 tables of their own whose columns need not be in the same order. The
 estimators read the names here: :func:`column_names` of a table,
 :func:`match_columns` reorders a table's columns to those of another (or
-says which names are missing and which unknown), :func:`response_index`
-finds a response by name or index.
+says which names are missing and which unknown), :func:`parameters_last`
+finds the parameter columns of the designer's ``X`` by name, and
+:func:`response_index` finds a response by name or index.
 
 Examples
 --------
@@ -54,6 +55,38 @@ def match_columns(A, names, name, reference):
             "differ), or pass arrays, which are matched by position."
         )
     return A.iloc[:, [own.index(n) for n in names]]
+
+
+def parameters_last(X, parameters):
+    """A table ``X`` with the columns named in ``parameters`` moved to its end.
+
+    The sensor designer's ``X`` holds the design variables, then the
+    calibration parameters. With a DataFrame and named parameters (a dict
+    prior), the parameter columns are found by name, whatever their place;
+    the other columns, in their order, are the design variables. An array,
+    or unnamed parameters, are left as they are (positions).
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> X = pd.DataFrame({"E": [70.0], "F": [1.0], "M": [2.0]})
+    >>> list(parameters_last(X, ["E"]).columns)
+    ['F', 'M', 'E']
+    """
+    own = column_names(X)
+    if own is None or parameters is None:
+        return X
+    parameters = [str(p) for p in parameters]
+    missing = [p for p in parameters if p not in own]
+    if missing:
+        raise ValueError(
+            f"X has no column for the parameter(s) {missing} of the prior "
+            f"(its keys: {parameters}; the columns of X: {own}). Name the "
+            "parameter columns of X like the prior's keys, or pass X as an "
+            "array with the parameters as its last columns."
+        )
+    design = [c for c in own if c not in parameters]
+    return X.iloc[:, [own.index(c) for c in design + parameters]]
 
 
 def response_index(item, names, q):

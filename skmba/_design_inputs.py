@@ -28,6 +28,13 @@ from skmba._simulations import RUNS_PER_INPUT
 DEFAULT_N_DESIGN = 25
 
 
+def given_prior(prior, calibrator):
+    """The designer's ``prior``, else its calibrator's (None if neither)."""
+    if prior is None and calibrator is not None:
+        return calibrator.prior
+    return prior
+
+
 def designer_prior(prior, calibrator, X):
     """The checked prior, and the number ``d`` of design variables of ``X``.
 
@@ -35,8 +42,7 @@ def designer_prior(prior, calibrator, X):
     is ``prior`` or else the calibrator's, and the simulated parameters must
     overlap its support.
     """
-    if prior is None and calibrator is not None:
-        prior = calibrator.prior
+    prior = given_prior(prior, calibrator)
     if prior is None:
         raise ValueError(
             "prior is required: pass the prior of the calibration parameters, "

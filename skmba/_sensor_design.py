@@ -38,10 +38,11 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 from threadpoolctl import threadpool_limits
 
 from skmba._calibration import ModularBayesCalibrator
-from skmba._columns import column_names, response_index
+from skmba._columns import column_names, parameters_last, response_index
 from skmba._design_inputs import (
     designer_prior,
     field_design,
+    given_prior,
     synthetic_data_priors,
 )
 from skmba._discrepancy import (
@@ -49,7 +50,7 @@ from skmba._discrepancy import (
 )
 from skmba._emulator import Standardizer, fit_emulator
 from skmba._integration import integrate_over_prior
-from skmba._mba import DISCREPANCY_UNCERTAINTIES, module_settings
+from skmba._mba import DISCREPANCY_UNCERTAINTIES, module_settings, prior_names
 from skmba._preposterior import (
     PRIOR_UNITS,
     MonteCarloContext,
@@ -379,9 +380,12 @@ class PreposteriorDesigner(BaseEstimator):
 
         Parameters
         ----------
-        X : array-like of shape (N, d + r)
+        X : array-like or DataFrame of shape (N, d + r)
             Simulation inputs: the ``d`` design variables, then the ``r``
-            calibration parameters (the last ``r`` columns).
+            calibration parameters (the last ``r`` columns). With a
+            DataFrame and a dict prior, the parameter columns are those
+            named by the prior's keys, wherever they are; the others are
+            the design variables.
         y : array-like of shape (N,) or (N, q)
             Simulated responses. No field data is needed.
 
@@ -396,6 +400,8 @@ class PreposteriorDesigner(BaseEstimator):
         started = time.perf_counter()
         validate_parameter_table(self)
         names = column_names(y)
+        # A table's parameter columns are found by the prior's names.
+        X = parameters_last(X, prior_names(given_prior(self.prior, self.calibrator)))
         X, y = validate_data(self, X, y, multi_output=True, y_numeric=True)
         # C order whatever the input's (a DataFrame gives Fortran order): the
         # same bits as from an array.

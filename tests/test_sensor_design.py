@@ -357,3 +357,23 @@ def test_responses_by_name_with_a_dataframe(small, exhaustive):
         named.score_subset(["rotation"])
     with pytest.raises(ValueError, match="response index 3 is out of range"):
         named.score_subset([3])
+
+
+def test_parameter_columns_of_a_table_found_by_the_prior_names(small, exhaustive):
+    """With a DataFrame X and a dict prior, the parameter column is found by
+    name wherever it is (here first): the same scores as the array with the
+    parameter last. A prior key that X lacks is an error listing both."""
+    pd = pytest.importorskip("pandas")
+    data, X = small
+    table = pd.DataFrame({"E": X[:, 1], "F": X[:, 0]})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        named = designer({"E": data.prior[0]}).fit(table, data.y_sim)
+    np.testing.assert_array_equal(named.scores_, exhaustive.scores_)
+    assert list(named.feature_names_in_) == ["F", "E"]
+    with pytest.raises(
+        ValueError,
+        match=r"X has no column for the parameter\(s\) \['modulus'\] of the prior "
+        r"\(its keys: \['modulus'\]; the columns of X: \['E', 'F'\]\)",
+    ):
+        designer({"modulus": data.prior[0]}).fit(table, data.y_sim)
