@@ -39,8 +39,8 @@ data = make_truss_bridge(
 
 log = pd.DataFrame(data.y_obs, columns=gauges)
 log.insert(0, "T", data.X_obs[:, 0])
-log.loc[10:17, "SB"] = np.nan  # gauge SB out for eight readings
-log.loc[30:35, "SH"] = np.nan  # gauge SH out for six
+log.loc[10:17, "SA"] = np.nan  # gauge SA out for eight readings
+log.loc[30:35, "SG"] = np.nan  # gauge SG out for six
 log["SI"] *= 1000.0  # SI's logger writes nanostrain
 print(log.head(12).round(1))
 
@@ -97,7 +97,7 @@ print(f"true k: {data.theta_true[0]:.2f} N/mm")
 # %%
 # The gaps
 # --------
-# The readings of ``SB`` and ``SH`` during their outages were not used: the
+# The readings of ``SA`` and ``SG`` during their outages were not used: the
 # calibration used the other gauges' readings of those rows. The calibrated
 # prediction of a new reading (:meth:`~skmba.ModularBayesCalibrator.predict`
 # with ``return_std=True``) fills the gaps with a 95 % band; the readings
@@ -108,7 +108,7 @@ mean, std = cal.predict(field_inputs, return_std=True)
 order = np.argsort(log["T"].to_numpy())
 T = log["T"].to_numpy()[order]
 fig, axes = plt.subplots(1, 2, figsize=(9, 3.8), sharex=True, layout="constrained")
-for ax, gauge in zip(axes, ["SB", "SH"], strict=True):
+for ax, gauge in zip(axes, ["SA", "SG"], strict=True):
     j = gauges.index(gauge)
     m, s = mean[order, j], std[order, j]
     ax.fill_between(T, m - 1.96 * s, m + 1.96 * s, color="tab:blue", alpha=0.25)
