@@ -513,7 +513,9 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
                 f"theta_sim has {sims.theta.shape[1]} columns but the prior has "
                 f"{prior.dim} parameters."
             )
-        check_simulation_design(X, prior, sims)
+        check_simulation_design(
+            X, prior, sims, getattr(self, "feature_names_in_", None)
+        )
         check_response_ranges(Y, sims.y, responses)
         return dict(
             X=X,

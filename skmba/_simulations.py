@@ -539,8 +539,12 @@ def _constant_columns(A):
     return np.flatnonzero(spread <= 1e-12 * np.abs(A).max(axis=0))
 
 
-def check_simulation_design(X, prior, sims):
-    """Whether the simulations can support an emulator and the prior."""
+def check_simulation_design(X, prior, sims, names=None):
+    """Whether the simulations can support an emulator and the prior.
+
+    ``names`` (the columns of a DataFrame ``X``) name the design variables
+    in the warning on observation inputs outside the simulations.
+    """
     n_sim = len(sims.X)
     fixed = _constant_columns(sims.theta)
     if fixed.size:
@@ -564,13 +568,22 @@ def check_simulation_design(X, prior, sims):
     # the range of X (the simulator's design) stops short of its ends.
     lo, hi = sims.X.min(axis=0), sims.X.max(axis=0)
     margin = (1.0 / max(n_sim - 1, 1) + 1e-9) * (hi - lo)
-    outside = np.any((X < lo - margin) | (X > hi + margin), axis=1)
+    below, above = X < lo - margin, X > hi + margin
+    outside = np.any(below | above, axis=1)
     if np.any(outside):
+        parts = []
+        for j in np.flatnonzero(np.any(below | above, axis=0)):
+            label = f"{names[j]!r}" if names is not None else f"column {j}"
+            parts.append(
+                f"{label}: {int(np.sum(below[:, j] | above[:, j]))} at "
+                f"[{X[:, j].min():.4g}, {X[:, j].max():.4g}] against simulations "
+                f"over [{lo[j]:.4g}, {hi[j]:.4g}]"
+            )
         warnings.warn(
             f"{int(outside.sum())} observation input(s) lie outside the range "
-            "of the simulations (widened by one mean spacing of the runs): "
-            "the emulator extrapolates there. Extend the simulation design "
-            "to cover X.",
+            "of the simulations (widened by one mean spacing of the runs), in "
+            f"the design variable(s) {'; '.join(parts)}: the emulator "
+            "extrapolates there. Extend the simulation design to cover X.",
             UserWarning,
             stacklevel=4,
         )

@@ -610,8 +610,10 @@ BAD_INPUT = [
     case(
         "observations-outside-the-simulations",
         UserWarning,
-        r"5 observation input\(s\) lie outside the range of the simulations .*: the "
-        r"emulator extrapolates there. Extend the simulation design",
+        r"5 observation input\(s\) lie outside the range of the simulations "
+        r"\(widened by one mean spacing of the runs\), in the design variable\(s\) "
+        r"column 0: 5 at \[.*\] against simulations over \[.*\]: the emulator "
+        r"extrapolates there. Extend the simulation design",
         X=BAD.X_obs * 2.0,
     ),
     case(
@@ -1307,3 +1309,15 @@ def test_a_row_without_readings_is_left_out_and_gaps_use_the_rest():
     m0, m1 = np.isfinite(y[:, 0]), np.isfinite(y[:, 1])
     expected = 0.5 * (r2_score(y[m0, 0], pred[m0, 0]) + r2_score(y[m1, 1], pred[m1, 1]))
     assert full.score(data.X_obs, y) == pytest.approx(expected, rel=1e-12)
+
+
+def test_observations_outside_the_simulations_name_the_design_variable():
+    pd = pytest.importorskip("pandas")
+    X = pd.DataFrame({"F": BAD.X_obs[:, 0] * 2.0})
+    cal = ModularBayesCalibrator(
+        prior=BAD.prior, n_restarts_optimizer=0, random_state=0
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", NonIdentifiabilityWarning)
+        with pytest.warns(UserWarning, match=r"in the design variable\(s\) 'F': 5 at"):
+            cal.fit(X, BAD.y_obs, **SIMS)
