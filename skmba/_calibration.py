@@ -545,14 +545,17 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         Parameters
         ----------
         theta : array-like of shape (r,) or (m, r)
-            A DataFrame's columns are matched to ``parameter_names_``.
+            A DataFrame's columns are matched to ``parameter_names_`` when
+            the prior named them (a dict prior), else taken in order.
 
         Returns
         -------
         float or ndarray of shape (m,)
         """
         check_is_fitted(self, "theta_mean_")
-        theta = match_columns(theta, self.parameter_names_, "theta", "the parameters")
+        # A table is matched by name when the prior named the parameters.
+        named = getattr(self.prior_, "names", None)
+        theta = match_columns(theta, named, "theta", "the parameter names")
         theta = np.asarray(theta, dtype=float)
         single = theta.ndim == 1
         theta = np.atleast_2d(theta)

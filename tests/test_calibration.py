@@ -63,6 +63,10 @@ def test_log_posterior_is_prior_plus_schur_likelihood():
     )
     assert values[0] == pytest.approx(float(expected[0]), rel=1e-12)
     assert cal.log_posterior(theta[1]) == pytest.approx(values[1])
+    # a list prior names no parameters: a table's columns are taken in order
+    pd = pytest.importorskip("pandas")
+    table = pd.DataFrame(theta, columns=["Young's modulus"])
+    np.testing.assert_array_equal(cal.log_posterior(table), values)
     with pytest.raises(ValueError, match="theta has 2 values"):
         cal.log_posterior([1.0, 2.0])
 
