@@ -176,6 +176,20 @@ class Emulator:
     def q(self):
         return self.Y.shape[1]
 
+    def field_correlation(self, X_e):
+        """``R_m`` at ``[X_e, theta]`` (n, n) when it is the same for every
+        theta, else None.
+
+        With a stationary kernel the correlation depends on differences
+        only, and all field points share theta: the theta differences are
+        exactly zero, so this equals, bit for bit, the correlation at any
+        theta.
+        """
+        if not self.kernel.is_stationary():
+            return None
+        r = self.Z.shape[1] - X_e.shape[1]
+        return self.kernel(np.hstack([X_e, np.zeros((len(X_e), r))]))
+
     def conditional(self, X_e, thetas):
         """The emulator given the simulations at ``[X_e, theta]`` per theta.
 
@@ -243,14 +257,20 @@ class EmulatorConditional:
             self.k, self.n, -1
         )
 
-    def correlation(self, nugget=0.0):
-        """``R_m(D_e) - Rt' Rt + nugget I`` per theta (k, n, n)."""
+    def correlation(self, nugget=0.0, prior=None):
+        """``R_m(D_e) - Rt' Rt + nugget I`` per theta (k, n, n).
+
+        ``prior``, of shape (n, n), is ``R_m(D_e)`` when it is known not to
+        depend on theta (:meth:`Emulator.field_correlation`).
+        """
         n = self.n
         RtRt = [
             self.Rt[:, i * n : (i + 1) * n].T @ self.Rt[:, i * n : (i + 1) * n]
             for i in range(self.k)
         ]
-        T = self.prior_correlation() - np.stack(RtRt)
+        if prior is None:
+            prior = self.prior_correlation()
+        T = prior - np.stack(RtRt)
         T[:, np.arange(n), np.arange(n)] += nugget
         return T
 

@@ -17,9 +17,14 @@ Examples
 import copy
 
 import numpy as np
-from scipy import linalg, special
+from scipy import special
 
 from skmba._linalg import LOG_2PI, FactorizationError
+
+#: A module-2 draw whose weight ``p(phi_k | theta, data)`` stays below this
+#: around the posterior of theta is left out of the sampler's mixture
+#: (:meth:`ModelMixture.restricted`).
+IDLE_WEIGHT = 1e-10
 
 
 class ModelMixture:
@@ -61,29 +66,48 @@ class ModelMixture:
             return self._one_by_one(theta, conditional)
 
     def _stacked(self, conditional):
-        """The log likelihood of every draw, factored as a stack."""
+        """The log likelihood of every draw, factored as a stack.
+
+        One stacked Cholesky factorisation of the bordered matrices
+        ``[[S_k, Z], [Z', c I]]`` (``Z`` the field rows of the regression
+        and data) gives both ``L_k`` and ``Z' L_k^-T``, the whitened field
+        rows, whose triangular solves would otherwise be one call per draw.
+        ``c`` exceeds ``||Z||_F^2 / min_k lambda_min(S_k)`` (the smallest
+        eigenvalue is at least the smallest noise variance: the other terms
+        are positive semi-definite), so the bordered matrices are positive
+        definite whenever the ``S_k`` are; ``c`` does not enter the factors
+        that are used.
+        """
         base = self.base
-        if self._S_fixed is None:
-            self._S_fixed = np.stack([m.S_fixed for m in self.models])
         cond, model_term = conditional
-        L = np.linalg.cholesky(self._S_fixed + model_term)
         X_bot, y_bot = base.field_data(cond)
-        W = linalg.solve_triangular(
-            L, np.column_stack([X_bot, y_bot])[None], lower=True
-        )
-        K, P = len(L), base.P
-        stacked = np.concatenate(
-            [np.broadcast_to(base.G_top, (K, *base.G_top.shape)), W[:, :, :P]], axis=1
-        )
-        Q, G = np.linalg.qr(stacked)
-        diag = np.abs(np.diagonal(G, axis1=1, axis2=2))
+        Z = np.column_stack([X_bot, y_bot])
+        m, P = Z.shape[0], base.P
+        if self._S_fixed is None:
+            self._S_fixed = np.stack([mdl.S_fixed for mdl in self.models])
+            self._noise_floor = min(float(np.min(mdl.noise)) for mdl in self.models)
+        K = len(self._S_fixed)
+        border = 2.0 * float(np.sum(Z**2)) / self._noise_floor + 1.0
+        if not np.isfinite(border):  # a zero noise variance: no bound
+            raise FactorizationError("no bound on the bordered matrix")
+        bordered = np.empty((K, m + P + 1, m + P + 1))
+        bordered[:, :m, :m] = self._S_fixed + model_term
+        bordered[:, :m, m:] = Z
+        bordered[:, m:, :m] = Z.T
+        bordered[:, m:, m:] = border * np.eye(P + 1)
+        factor = np.linalg.cholesky(bordered)
+        L = factor[:, :m, :m]
+        W = np.swapaxes(factor[:, m:, :m], 1, 2)
+        # R factor of [[G_top, b_top], [W_X, w_y]]: its leading P x P block
+        # is that of the whitened regression, its last diagonal entry the
+        # norm of the residual beyond the simulations' own (rss_top_perp).
+        top = np.column_stack([base.G_top, base.b_top])
+        stacked = np.concatenate([np.broadcast_to(top, (K, *top.shape)), W], axis=1)
+        R = np.linalg.qr(stacked, mode="r")
+        diag = np.abs(np.diagonal(R[:, :P, :P], axis1=1, axis2=2))
         if np.any(diag.min(axis=1) <= 1e-10 * diag.max(axis=1)):
             raise FactorizationError("rank deficient")
-        rhs = np.concatenate(
-            [np.broadcast_to(base.b_top, (K, len(base.b_top))), W[:, :, P]], axis=1
-        )
-        proj = np.einsum("kmp,km->kp", Q, rhs)
-        rss = base.rss_top_perp + np.sum(rhs**2, axis=1) - np.sum(proj**2, axis=1)
+        rss = base.rss_top_perp + R[:, P, P] ** 2
         log_det_S = 2.0 * np.sum(np.log(np.diagonal(L, axis1=1, axis2=2)), axis=1)
         M = base.N * self.q + base.n_observed
         return -0.5 * (
@@ -108,12 +132,39 @@ class ModelMixture:
 
     def log_likelihood(self, theta):
         """``log sum_k w_k p(data | theta, phi_k)``."""
-        return float(special.logsumexp(self.component_log_likelihoods(theta)))
+        # numpy's reduction: scipy's logsumexp costs more than the sum here.
+        return float(np.logaddexp.reduce(self.component_log_likelihoods(theta)))
 
     def draw_weights(self, theta):
         """``p(phi_k | theta, data)`` over the draws (sums to one)."""
         values = self.component_log_likelihoods(theta)
         return np.exp(values - special.logsumexp(values))
+
+    def restricted(self, thetas, tol=IDLE_WEIGHT):
+        """The mixture of the draws that carry weight at some of ``thetas``.
+
+        A draw is kept when ``p(phi_k | theta, data)`` exceeds ``tol`` at
+        one of ``thetas`` at least (standardised, each of shape (r,)); the
+        mixture is returned as it is when every draw is kept. At each of
+        ``thetas``, the log likelihood of the restricted mixture differs
+        from the full one by less than ``K tol``.
+
+        Returns
+        -------
+        mixture : ModelMixture
+        kept : ndarray of int
+            The indices of the draws kept.
+        """
+        weights = np.array([self.draw_weights(t) for t in thetas])
+        kept = np.flatnonzero(weights.max(axis=0) > tol)
+        if len(kept) == len(self.models):
+            return self, kept
+        other = object.__new__(type(self))
+        other.__dict__.update(self.__dict__)
+        other.models = [self.models[k] for k in kept]
+        other.log_weights = self.log_weights[kept]
+        other._S_fixed = None
+        return other, kept
 
     def effective_draws(self, theta):
         """Kish's effective number of draws at ``theta`` (1 to ``K``)."""

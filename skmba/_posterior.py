@@ -146,6 +146,8 @@ class GlobalModel:
         # The measured entries of vec(Y_e) (None: all), and their number.
         self.observed = observed_entries(Y_e)
         self.n_observed = n * q if self.observed is None else len(self.observed)
+        # The model correlation among the field points, when theta-free.
+        self.R_ee = emulator.field_correlation(X_e)
         self.p_m = emulator.H_white.shape[1]
         self.H_d = regression_basis(X_e, self.regression_d)
         self.p_d = self.H_d.shape[1]
@@ -199,7 +201,8 @@ class GlobalModel:
         depend on the module-2 hyperparameters.
         """
         cond = self.emulator.conditional(self.X_e, np.ravel(theta)[None, :])
-        model_term = np.kron(self.sigma2_m, cond.correlation(self.nugget)[0])
+        T = cond.correlation(self.nugget, prior=self.R_ee)[0]
+        model_term = np.kron(self.sigma2_m, T)
         return cond, observed_block(model_term, self.observed)
 
     def field_data(self, cond):
@@ -332,6 +335,12 @@ class LogPosterior:
             return log_prior + model.log_likelihood(self.scaler.theta(theta))
         except FactorizationError:
             return -np.inf
+
+    def with_model(self, model):
+        """A copy with another global model (e.g. a restricted mixture)."""
+        other = copy.copy(self)
+        other.model = model
+        return other
 
     def to_u(self, theta):
         """Sampling coordinates of ``theta`` (..., r)."""
@@ -600,7 +609,7 @@ def _hessian(f, x, step):
 
 
 def _chain_starts(log_posterior, n_chains, rng):
-    """Overdispersed starts around the mode, and the Laplace covariance.
+    """Overdispersed starts around the mode, the mode and its Laplace covariance.
 
     The best of many prior draws, refined to the mode; the chains then start
     around it with a Laplace proposal.
@@ -623,7 +632,53 @@ def _chain_starts(log_posterior, n_chains, rng):
         start = mode + 1.5 * root @ rng.standard_normal(r)
         if np.isfinite(log_posterior.log_density_u(start)):
             starts.append(start)
-    return np.array(starts), cov
+    return np.array(starts), mode, cov
+
+
+#: Kept posterior draws at which :func:`_without_idle_draws` is checked.
+_IDLE_CHECK_DRAWS = 100
+#: Weight of a left-out module-2 draw at a posterior draw above which the
+#: chains are run again over every draw.
+_IDLE_CHECK_WEIGHT = 1e-6
+
+
+def _without_idle_draws(log_posterior, mode, cov, starts):
+    """The log posterior over the module-2 draws that matter near the mode.
+
+    Over a mixture of module-2 draws, most of the cost per theta is one
+    factorisation per draw, and draws whose weight ``p(phi_k | theta,
+    data)`` is negligible around the posterior (typically the draws of the
+    prior itself, which the defensive proposal adds) change nothing. They
+    are left out when their weight stays below
+    :data:`~skmba._mixture.IDLE_WEIGHT` at the mode, at the chains' starts
+    and three Laplace standard deviations from the mode along each
+    principal axis. Returns the log posterior for the chains and the
+    indices of the draws kept (None: ``log_posterior`` itself, when the
+    model is not a mixture or every draw is kept).
+    """
+    model = log_posterior.model
+    if not hasattr(model, "restricted"):
+        return log_posterior, None
+    values, vectors = np.linalg.eigh(cov)
+    axes = (3.0 * np.sqrt(np.clip(values, 0.0, None)) * vectors).T
+    points = np.vstack([mode, starts, mode + axes, mode - axes])
+    thetas = [log_posterior.scaler.theta(t) for t in log_posterior.from_u(points)]
+    restricted, kept = model.restricted([t for t in thetas if np.all(np.isfinite(t))])
+    if restricted is model:
+        return log_posterior, None
+    return log_posterior.with_model(restricted), kept
+
+
+def _idle_weight(log_posterior, kept, samples):
+    """The largest weight of the draws left out, at thinned posterior draws."""
+    model = log_posterior.model
+    left_out = np.setdiff1d(np.arange(len(model.models)), kept)
+    step = max(1, len(samples) // _IDLE_CHECK_DRAWS)
+    weights = [
+        model.draw_weights(log_posterior.scaler.theta(t))[left_out]
+        for t in samples[::step]
+    ]
+    return float(np.max(weights))
 
 
 def posterior_by_mcmc(
@@ -662,25 +717,47 @@ def posterior_by_mcmc(
     starts_seed, chains_seed = seed_sequence(random_state).spawn(2)
     rng = np.random.default_rng(starts_seed)
     started = time.perf_counter()
-    starts, cov = _chain_starts(log_posterior, n_chains, rng)
+    starts, mode, cov = _chain_starts(log_posterior, n_chains, rng)
     r = starts.shape[1]
-    targets = [_ChainTarget(log_posterior) for _ in range(n_chains)]
     say(
         f"module 3: posterior mode found in {time.perf_counter() - started:.1f} "
         f"s; running {n_chains} chain(s) of {burn_in} burn-in + "
         f"{n_samples} steps"
     )
-    result = run_chains(
-        targets,
-        starts,
-        n_samples=n_samples,
-        burn_in=burn_in,
-        proposal_cov=(2.38**2 / r) * cov,
-        adapt=True,
-        n_jobs=n_jobs,
-        random_state=chains_seed,
-        progress=progress,
-    )
+    chain_posterior, kept = _without_idle_draws(log_posterior, mode, cov, starts)
+
+    def sample(target):
+        return run_chains(
+            [_ChainTarget(target) for _ in range(n_chains)],
+            starts,
+            n_samples=n_samples,
+            burn_in=burn_in,
+            proposal_cov=(2.38**2 / r) * cov,
+            adapt=True,
+            screen=True,
+            n_jobs=n_jobs,
+            random_state=chains_seed,
+            progress=progress,
+        )
+
+    result = sample(chain_posterior)
+    if chain_posterior is not log_posterior:
+        n_draws = len(log_posterior.model.models)
+        idle = _idle_weight(
+            log_posterior, kept, log_posterior.from_u(result.samples.reshape(-1, r))
+        )
+        if idle > _IDLE_CHECK_WEIGHT:
+            say(
+                f"module 3: a module-2 draw left out weighs {idle:.2g} at a "
+                f"posterior draw; the chains run again over all {n_draws} draws"
+            )
+            result = sample(log_posterior)
+        else:
+            say(
+                f"module 3: the chains used the {len(kept)} of {n_draws} "
+                "module-2 draws with weight near the posterior (the others "
+                f"weigh at most {idle:.1g} at the posterior draws)"
+            )
     chains = log_posterior.from_u(result.samples)
     # Diagnostics of theta itself: the folded part of the rank R-hat is not
     # invariant to the log coordinates (and ArviZ sees theta).

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from skmba._diagnostics import check_diagnostics
+from skmba._diagnostics import check_diagnostics, ess_bulk
 from skmba._sampling import ChainResult, run_chains
 
 # A 2-D Gaussian whose scales differ by 1e5 and whose correlation is -0.9:
@@ -339,3 +339,105 @@ def test_check_diagnostics_quiet_on_a_good_run(gaussian_result):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert check_diagnostics(gaussian_result) == []
+
+
+# ---------------------------------------------------------------------------
+# Delayed acceptance (screen)
+
+# A banana: x ~ N(0, 2^2), y | x ~ N(B (x^2 - 4), 1), so that E[x] = E[y] = 0,
+# Var x = 4 and Var y = 1 + B^2 Var(x^2) = 1 + 32 B^2. A Gaussian screen is a
+# poor approximation of it.
+BANANA_B = 0.15
+
+
+def banana(theta):
+    x, y = theta
+    return -0.5 * (x / 2.0) ** 2 - 0.5 * (y - BANANA_B * (x**2 - 4.0)) ** 2
+
+
+def _screened(log_density, starts, screen, seed, n_jobs=None, **kwargs):
+    return run_chains(
+        log_density,
+        starts,
+        n_samples=kwargs.pop("n_samples", 4000),
+        burn_in=kwargs.pop("burn_in", 2000),
+        screen=screen,
+        n_jobs=n_jobs,
+        random_state=seed,
+        **kwargs,
+    )
+
+
+def _assert_moments(result, mean, var):
+    """Means and variances within 4 Monte Carlo standard errors, each from
+    the bulk ESS of the draws (of their squared deviations for the
+    variance)."""
+    samples = result.samples
+    draws = result.pooled
+    se_mean = np.sqrt(draws.var(axis=0) / result.ess)
+    assert np.all(np.abs(draws.mean(axis=0) - mean) < 4 * se_mean)
+    squares = (samples - mean) ** 2
+    ess = [ess_bulk(squares[:, :, j]) for j in range(samples.shape[-1])]
+    se_var = np.sqrt(squares.reshape(-1, len(mean)).var(axis=0) / ess)
+    assert np.all(
+        np.abs(squares.reshape(-1, len(mean)).mean(axis=0) - var) < 4 * se_var
+    )
+
+
+def test_screened_chains_sample_a_correlated_gaussian_with_fewer_evaluations():
+    screened = _screened(correlated_gaussian, dispersed_starts(4, seed=0), True, 0)
+    _assert_moments(screened, MEAN, np.diag(COV))
+    assert np.all(screened.rhat < 1.01)
+    np.testing.assert_allclose(screened.acceptance_rate, 0.234, atol=0.08)
+    # On a Gaussian target the screen passes about a third of the
+    # proposals, and the chains mix almost as well as unscreened ones.
+    assert np.all(screened.n_evaluations < 0.45 * 4000)
+    plain = _screened(correlated_gaussian, dispersed_starts(4, seed=0), False, 0)
+    np.testing.assert_array_equal(plain.n_evaluations, 4000)
+    assert np.all(screened.ess > 0.75 * plain.ess)
+
+
+@pytest.mark.parametrize("screen", [False, True])
+def test_banana_moments_with_and_without_a_screen(screen):
+    result = _screened(
+        banana, np.array([[0.0, 0.0], [1.0, 1.0], [-1.0, 0.0]]), screen, seed=2
+    )
+    _assert_moments(result, np.zeros(2), np.array([4.0, 1.0 + 32 * BANANA_B**2]))
+    assert np.all(result.rhat < 1.02)
+    if screen:
+        assert np.all(result.n_evaluations < 0.6 * 4000)
+    else:
+        np.testing.assert_array_equal(result.n_evaluations, 4000)
+
+
+def test_screened_chains_are_identical_for_any_n_jobs():
+    def run(screen, n_jobs):
+        return _screened(
+            correlated_gaussian,
+            dispersed_starts(3, seed=5),
+            screen,
+            42,
+            n_jobs=n_jobs,
+            n_samples=300,
+            burn_in=300,
+        )
+
+    serial = run(True, 1)
+    parallel = run(True, 2)
+    _assert_identical(serial, parallel)
+    np.testing.assert_array_equal(serial.n_evaluations, parallel.n_evaluations)
+    assert not np.array_equal(run(False, 1).samples, serial.samples)
+
+
+def test_no_burn_in_means_no_screen():
+    result = run_chains(
+        standard_normal, np.zeros((2, 2)), n_samples=50, burn_in=0, screen=True
+    )
+    np.testing.assert_array_equal(result.n_evaluations, 50)
+
+
+def test_screen_must_be_a_bool():
+    with pytest.raises(TypeError, match="screen must be True or False"):
+        run_chains(
+            standard_normal, np.zeros((1, 2)), n_samples=5, burn_in=0, screen="yes"
+        )
