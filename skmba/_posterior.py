@@ -727,6 +727,8 @@ def posterior_by_mcmc(
     chain_posterior, kept = _without_idle_draws(log_posterior, mode, cov, starts)
 
     def sample(target):
+        # A copy: spawning the chains' seeds advances a SeedSequence, and a
+        # second run must draw what the first drew.
         return run_chains(
             [_ChainTarget(target) for _ in range(n_chains)],
             starts,
@@ -736,7 +738,7 @@ def posterior_by_mcmc(
             adapt=True,
             screen=True,
             n_jobs=n_jobs,
-            random_state=chains_seed,
+            random_state=copy.deepcopy(chains_seed),
             progress=progress,
         )
 

@@ -94,3 +94,32 @@ def test_copies_have_their_own_caches(problem):
     assert all(a is not b for a, b in zip(mix.models, other.models, strict=True))
     t = np.array([0.1])
     assert other.log_likelihood(t) == mix.log_likelihood(t)
+
+
+def test_restricted_keeps_the_draws_with_weight(problem):
+    gm = problem[1]
+    draws = _draws(K=6, seed=3)
+    # A draw of absurd noise carries no weight anywhere near the data.
+    idle = DiscrepancyComponent(
+        Gauss(roughness=1.0), 0.1 * np.eye(2), 1e3 * np.ones(2), "constant"
+    )
+    draws = HyperposteriorDraws(
+        None, [*draws.components, idle], np.append(draws.log_weights, 0.0), None
+    )
+    mix = ModelMixture(gm, draws)
+    thetas = [np.array([t]) for t in (-0.5, 0.0, 0.5)]
+    restricted, kept = mix.restricted(thetas)
+    np.testing.assert_array_equal(kept, np.arange(6))
+    assert len(restricted.models) == 6 and len(mix.models) == 7
+    for t in thetas:
+        # Within K tol of the full mixture; the draws kept are the same.
+        assert restricted.log_likelihood(t) == pytest.approx(
+            mix.log_likelihood(t), abs=7 * 1e-10
+        )
+        np.testing.assert_array_equal(
+            restricted.component_log_likelihoods(t),
+            mix.component_log_likelihoods(t)[:6],
+        )
+    # Nothing to leave out: the mixture itself.
+    same, kept = restricted.restricted(thetas, tol=0.0)
+    assert same is restricted and len(kept) == 6

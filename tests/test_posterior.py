@@ -3,6 +3,7 @@ with every field entry measured and with gaps (NaN entries left out)."""
 
 import copy
 import dataclasses
+import warnings
 
 import numpy as np
 import pytest
@@ -50,3 +51,53 @@ def test_field_correlation_of_a_non_stationary_kernel_is_none(problem):
     gp.kernel_ = DotProduct()
     emulator = dataclasses.replace(emulator, gp=gp)
     assert emulator.field_correlation(problem[1].X_e) is None
+
+
+def _two_parameter_fit(capsys=None, **params):
+    from skmba import ModularBayesCalibrator
+    from skmba.datasets import make_cantilever
+
+    data = make_cantilever(30, 12, parameters=("E", "I"), random_state=3)
+    cal = ModularBayesCalibrator(
+        prior=data.prior,
+        n_chains=2,
+        n_samples=150,
+        burn_in=150,
+        n_restarts_optimizer=0,
+        random_state=0,
+        **params,
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        cal.fit(
+            data.X_obs,
+            data.y_obs,
+            X_sim=data.X_sim,
+            theta_sim=data.theta_sim,
+            y_sim=data.y_sim,
+        )
+    return cal
+
+
+def test_chains_leave_out_idle_draws_and_run_again_when_they_matter(
+    monkeypatch, capsys
+):
+    import skmba._posterior as posterior
+
+    pruned = _two_parameter_fit(verbose=1)
+    said = capsys.readouterr().err
+    assert "module-2 draws with weight near the posterior" in said
+    # Over every draw: the draws left out weighed nothing, so the chains
+    # take the same path; round-off in the sums over draws moves the optima
+    # that set the second pass (module 2's mode, the chains' proposal) and
+    # with them the draws, by about 1e-7.
+    monkeypatch.setattr(posterior, "_without_idle_draws", lambda lp, *args: (lp, None))
+    every = _two_parameter_fit()
+    np.testing.assert_allclose(every.theta_samples_, pruned.theta_samples_, rtol=1e-6)
+    # Should a draw left out weigh something at a posterior draw, the chains
+    # run again over every draw.
+    monkeypatch.undo()
+    monkeypatch.setattr(posterior, "_IDLE_CHECK_WEIGHT", -1.0)
+    again = _two_parameter_fit(verbose=1)
+    assert "the chains run again over all" in capsys.readouterr().err
+    np.testing.assert_array_equal(again.theta_samples_, every.theta_samples_)
