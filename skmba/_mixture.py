@@ -145,9 +145,10 @@ class ModelMixture:
 
         A draw is kept when ``p(phi_k | theta, data)`` exceeds ``tol`` at
         one of ``thetas`` at least (standardised, each of shape (r,)); the
-        mixture is returned as it is when every draw is kept. At each of
-        ``thetas``, the log likelihood of the restricted mixture differs
-        from the full one by less than ``K tol``.
+        mixture is returned as it is when every draw is kept (or no theta
+        can be evaluated). At each of ``thetas``, the log likelihood of the
+        restricted mixture differs from the full one by less than
+        ``K tol``.
 
         Returns
         -------
@@ -155,8 +156,15 @@ class ModelMixture:
         kept : ndarray of int
             The indices of the draws kept.
         """
-        weights = np.array([self.draw_weights(t) for t in thetas])
-        kept = np.flatnonzero(weights.max(axis=0) > tol)
+        weights = []
+        for theta in thetas:
+            try:
+                weights.append(self.draw_weights(theta))
+            except FactorizationError:
+                continue  # no draw can be evaluated there: no evidence
+        if not weights:
+            return self, np.arange(len(self.models))
+        kept = np.flatnonzero(np.max(weights, axis=0) > tol)
         if len(kept) == len(self.models):
             return self, kept
         other = object.__new__(type(self))

@@ -5,6 +5,7 @@ import pytest
 from scipy import special
 
 from skmba._hyperposterior import DiscrepancyComponent, HyperposteriorDraws
+from skmba._linalg import FactorizationError
 from skmba._mixture import ModelMixture
 from skmba._posterior import GlobalModel
 from skmba._prediction import conditional_moments
@@ -123,3 +124,20 @@ def test_restricted_keeps_the_draws_with_weight(problem):
     # Nothing to leave out: the mixture itself.
     same, kept = restricted.restricted(thetas, tol=0.0)
     assert same is restricted and len(kept) == 6
+
+
+def test_restricted_skips_thetas_that_cannot_be_evaluated(problem, monkeypatch):
+    mix = ModelMixture(problem[1], _draws(K=3, seed=4))
+    good, bad = np.array([0.1]), np.array([5.0])
+    weights = mix.draw_weights
+
+    def draw_weights(theta):
+        if theta[0] == bad[0]:
+            raise FactorizationError("not positive definite")
+        return weights(theta)
+
+    monkeypatch.setattr(mix, "draw_weights", draw_weights)
+    assert mix.restricted([good, bad], tol=0.0)[0] is mix
+    # Nothing evaluable: no evidence to leave a draw out.
+    same, kept = mix.restricted([bad], tol=1.0)
+    assert same is mix and len(kept) == 3
