@@ -27,7 +27,6 @@ from sklearn.utils.validation import (
     check_is_fitted,
     validate_data,
 )
-from threadpoolctl import threadpool_limits
 
 from skmba._columns import column_names, match_columns
 from skmba._discrepancy import DISCREPANCY_OPTIMIZERS
@@ -70,6 +69,7 @@ from skmba._summary import (
     calibration_text,
     inference_data,
 )
+from skmba._threads import blas_threads
 from skmba._validation import (
     Boolean,
     Callable,
@@ -432,13 +432,13 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
             than 2 % of the prior mass outside the simulated range of theta;
             poor MCMC diagnostics (R-hat, effective sample size).
         """
-        # Parallelism comes from joblib (n_jobs). Multithreaded BLAS on the
-        # small and medium matrices here mostly adds synchronisation, and
-        # numpy and scipy may each carry their own OpenBLAS pool, so that two
-        # "2-thread" pools compete for 2 cores (measured: 2-10x slower).
+        # BLAS threads by the package's policy (skmba._threads): the field
+        # block (n q) decides for modules 2-4 in this process; the emulator's
+        # fit and the simulation block take threads by their own size, and
+        # joblib tasks their share of the cores.
         partial = {}
         try:
-            with threadpool_limits(limits=1, user_api="blas"):
+            with blas_threads(np.size(y) if y is not None else 0):
                 fitted = self._fit(X, y, X_sim, theta_sim, y_sim, partial)
         except Exception as exc:
             sims = partial.get("simulations")

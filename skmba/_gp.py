@@ -24,7 +24,6 @@ import numpy as np
 from sklearn.base import BaseEstimator, MultiOutputMixin, RegressorMixin, clone
 from sklearn.gaussian_process.kernels import Kernel
 from sklearn.utils.validation import check_is_fitted, validate_data
-from threadpoolctl import threadpool_limits
 
 from skmba._gp_checks import (
     check_covariance_size,
@@ -43,6 +42,7 @@ from skmba._gp_search import (
 from skmba._likelihood import NoiseFreeLikelihood, NoisyLikelihood
 from skmba._linalg import check_memory
 from skmba._regression import REGRESSIONS, n_regression_terms, regression_basis
+from skmba._threads import blas_threads
 from skmba._validation import (
     Boolean,
     Callable,
@@ -288,7 +288,7 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
         After a failed fit the estimator is unfitted (any previous fit is
         discarded), so that it cannot mix old and new state.
         """
-        with self._fitting():
+        with self._fitting(X):
             return self._fit(X, y)
 
     def _fit_reporting(self, X, y, on_start):
@@ -296,22 +296,24 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
         the likelihood search (see
         :class:`~skmba._gp_search.LikelihoodProblem`): the emulator's
         progress bar (:func:`~skmba._emulator.fit_emulator`)."""
-        with self._fitting():
+        with self._fitting(X):
             return self._fit(X, y, on_start)
 
     @contextmanager
-    def _fitting(self):
-        """BLAS on one thread; after a failure, no fitted state.
+    def _fitting(self, X):
+        """BLAS threads by the number of samples; after a failure, no
+        fitted state.
 
         A context manager rather than a wrapper, so that the warnings'
         ``stacklevel`` counts the same frames from :meth:`fit` and
         :meth:`_fit_reporting`.
         """
-        # numpy and scipy may each bring an OpenBLAS pool; on few cores the
-        # pools compete and small-matrix work slows down 2-20x (measured:
-        # the noisy q=16 fit of benchmarks/bench_gp.py, 17 s -> 1 s). The
-        # likelihood work here is sequential, so hold BLAS to one thread.
-        with threadpool_limits(limits=1, user_api="blas"):
+        # The package's thread policy (skmba._threads): one BLAS thread for
+        # small designs (a second pool's spinning threads slowed the noisy
+        # q=16 fit of benchmarks/bench_gp.py 17-fold), all the process's
+        # threads from SMALL_ORDER samples on, where the N x N
+        # factorisations dominate.
+        with blas_threads(len(X) if hasattr(X, "__len__") else 0):
             try:
                 yield
             except BaseException:

@@ -38,9 +38,9 @@ from dataclasses import dataclass
 
 import numpy as np
 from joblib import Parallel, delayed
-from threadpoolctl import threadpool_limits
 
 from skmba._linalg import FEWER_FIELD_DATA, FLOAT_BYTES, check_memory, n_workers
+from skmba._threads import BlasTask
 
 MODULE2_VARIANCES = ("total", "conditional")
 INTEGRATIONS = ("auto", "quadrature", "qmc")
@@ -71,13 +71,13 @@ def nodes_per_block(n, block=64):
 def _node_block(emulator, X_e, nodes, weights):
     """Emulator means (k, n, q) at the nodes and ``sum_k w_k c_k`` (n, n).
 
-    BLAS is held to one thread, so that a block gives the same bits in any
-    joblib worker (process or thread) as in the calling process.
+    Run as a :class:`~skmba._threads.BlasTask`: its work is triangular
+    solves and products, whose bits do not depend on the BLAS threads, so a
+    block gives the same bits in any joblib worker as in the calling process.
     """
-    with threadpool_limits(limits=1, user_api="blas"):
-        cond = emulator.conditional(X_e, nodes)
-        corr = cond.universal_correlation()
-        return cond.mean(), np.tensordot(weights, corr, axes=1)
+    cond = emulator.conditional(X_e, nodes)
+    corr = cond.universal_correlation()
+    return cond.mean(), np.tensordot(weights, corr, axes=1)
 
 
 def weighted_moments(values, weights):
@@ -139,10 +139,9 @@ def integrate_emulator(emulator, X_e, nodes, weights, *, n_jobs=None, block=64):
     """
     block = nodes_per_block(len(X_e), block)
     starts = range(0, len(nodes), block)
+    task = BlasTask(_node_block, len(emulator.Z), n_jobs)
     parts = Parallel(n_jobs=n_jobs)(
-        delayed(_node_block)(
-            emulator, X_e, nodes[s : s + block], weights[s : s + block]
-        )
+        delayed(task)(emulator, X_e, nodes[s : s + block], weights[s : s + block])
         for s in starts
     )
     means = np.concatenate([p[0] for p in parts])

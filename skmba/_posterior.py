@@ -738,6 +738,7 @@ def posterior_by_mcmc(
             adapt=True,
             screen=True,
             n_jobs=n_jobs,
+            blas_order=log_posterior.model.n * log_posterior.model.q,
             random_state=copy.deepcopy(chains_seed),
             progress=progress,
         )

@@ -26,10 +26,10 @@ from dataclasses import dataclass
 import numpy as np
 from joblib import Parallel, delayed
 from scipy import linalg
-from threadpoolctl import threadpool_limits
 
 from skmba._linalg import FLOAT_BYTES, check_memory, n_workers, observed_rows
 from skmba._regression import regression_basis
+from skmba._threads import BlasTask
 from skmba._validation import seed_sequence
 
 COMPONENTS = ("model", "discrepancy", "reality", "observation")
@@ -169,21 +169,20 @@ def _predict_chunk(models, thetas, Xs, component, return_std):
     """Conditional moments at several posterior draws (one task).
 
     A shallow copy gives the task its own factorisation cache, so that tasks
-    sharing the model under a thread-based backend cannot see each other's;
-    BLAS is held to one thread so that the bits do not depend on the worker.
+    sharing the model under a thread-based backend cannot see each other's.
+    Run as a :class:`~skmba._threads.BlasTask` of the field block's order.
     """
     own = {}
-    with threadpool_limits(limits=1, user_api="blas"):
-        return [
-            conditional_moments(
-                own.setdefault(id(model), copy.copy(model)),
-                theta,
-                Xs,
-                component,
-                return_var=return_std,
-            )
-            for model, theta in zip(models, thetas, strict=True)
-        ]
+    return [
+        conditional_moments(
+            own.setdefault(id(model), copy.copy(model)),
+            theta,
+            Xs,
+            component,
+            return_var=return_std,
+        )
+        for model, theta in zip(models, thetas, strict=True)
+    ]
 
 
 def predict_component(model, rule, Xs, component, *, return_std, n_jobs=None):
@@ -225,17 +224,17 @@ def predict_component(model, rule, Xs, component, *, return_std, n_jobs=None):
         "Predict at fewer points per call (split X into batches of rows), "
         "or use a smaller n_jobs.",
     )
-    with threadpool_limits(limits=1, user_api="blas"):
-        chunks = Parallel(n_jobs=n_jobs)(
-            delayed(_predict_chunk)(
-                models[i : i + _PREDICT_CHUNK],
-                thetas[i : i + _PREDICT_CHUNK],
-                Xs,
-                component,
-                return_std,
-            )
-            for i in range(0, len(thetas), _PREDICT_CHUNK)
+    task = BlasTask(_predict_chunk, n * q, n_jobs)
+    chunks = Parallel(n_jobs=n_jobs)(
+        delayed(task)(
+            models[i : i + _PREDICT_CHUNK],
+            thetas[i : i + _PREDICT_CHUNK],
+            Xs,
+            component,
+            return_std,
         )
+        for i in range(0, len(thetas), _PREDICT_CHUNK)
+    )
     results = [moments for chunk in chunks for moments in chunk]
     if not return_std:
         return np.tensordot(w, np.stack(results), axes=1), None

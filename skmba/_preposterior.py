@@ -40,6 +40,7 @@ from skmba._integration import integrate_over_rule
 from skmba._progress import results_as_ready
 from skmba._regression import regression_basis
 from skmba._subset_likelihood import SubsetLikelihood
+from skmba._threads import BlasTask
 from skmba._validation import int_seed
 
 PRIOR_UNITS = ("standardised", "user")
@@ -446,8 +447,9 @@ def subset_moments(
     n_chunks = min(len(subsets), -(-len(subsets) * size // _TASK_EVALUATIONS))
     chunks = [subsets[c::n_chunks] for c in range(n_chunks)]
     tasks = [(chunk, block) for chunk in chunks for block in blocks]
+    task = BlasTask(_timed_posterior_block, ctx.n * ctx.q, n_jobs)
     calls = (
-        delayed(_timed_posterior_block)(ctx, [replicates[i] for i in block], chunk)
+        delayed(task)(ctx, [replicates[i] for i in block], chunk)
         for chunk, block in tasks
     )
     parts = []

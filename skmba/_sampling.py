@@ -67,10 +67,10 @@ from dataclasses import dataclass
 import numpy as np
 from joblib import delayed
 from scipy import linalg
-from threadpoolctl import threadpool_limits
 
 from skmba._diagnostics import ess_bulk, split_rhat
 from skmba._progress import Progress, results_as_ready
+from skmba._threads import blas_threads
 from skmba._validation import check_count, seed_sequence
 
 # Optimal scaling of a random-walk proposal for a Gaussian target in r
@@ -181,6 +181,7 @@ def run_chains(
     adapt=True,
     screen=False,
     n_jobs=None,
+    blas_order=0,
     random_state=None,
     verbose=0,
     progress=None,
@@ -223,9 +224,16 @@ def run_chains(
         screened.
     n_jobs : int, default=None
         Number of chains run at the same time by :class:`joblib.Parallel`
-        (default backend, so :func:`joblib.parallel_config` applies). Each
-        chain holds BLAS to one thread, so that its arithmetic, hence its
-        draws, do not depend on the backend or on the number of cores.
+        (default backend, so :func:`joblib.parallel_config` applies).
+    blas_order : int, default=0
+        Order of the largest matrix ``log_density`` factors. It sets the
+        BLAS threads of each chain by the package's policy
+        (:func:`skmba._threads.blas_threads`): one below
+        :data:`~skmba._threads.SMALL_ORDER`, so that a chain's arithmetic,
+        hence its draws, do not depend on the backend, ``n_jobs`` or the
+        number of cores; above it, each chain's share of the cores (a
+        factorisation's last bits, and so a chain's path, may then differ
+        between ``n_jobs`` settings).
     random_state : int, RandomState, Generator, SeedSequence or None
         Source of the :class:`numpy.random.SeedSequence` (see
         :func:`~skmba._validation.seed_sequence`) whose ``spawn(n_chains)``
@@ -289,11 +297,14 @@ def run_chains(
         adapt=bool(adapt),
         screen=bool(screen),
         n_jobs=n_jobs,
+        blas_order=int(blas_order),
         progress=Progress(verbose) if progress is None else progress,
     )
 
 
-def _run_parallel(chains, *, n_samples, burn_in, adapt, screen, n_jobs, progress):
+def _run_parallel(
+    chains, *, n_samples, burn_in, adapt, screen, n_jobs, blas_order, progress
+):
     """Run each chain's ``(log_density, start, start_value, chol, seed)``.
 
     Each chain is a :class:`_Chain` advanced by :func:`_advance` in
@@ -329,7 +340,10 @@ def _run_parallel(chains, *, n_samples, burn_in, adapt, screen, n_jobs, progress
         while until < total:
             until = min(total, until + segment)
             active = [c for c in range(len(states)) if done[c] < until]
-            tasks = (delayed(_advance)(densities[c], states[c], until) for c in active)
+            tasks = (
+                delayed(_advance)(densities[c], states[c], until, blas_order, n_jobs)
+                for c in active
+            )
             for c, state in zip(active, results_as_ready(tasks, n_jobs), strict=True):
                 states[c] = state
                 bar.update(state.steps - done[c])
@@ -459,13 +473,14 @@ def _merge_moments(counts, means, m2s):
     return n, mean, m2
 
 
-def _advance(log_density, state, until):
+def _advance(log_density, state, until, blas_order=0, n_jobs=None):
     """Run ``state`` (a :class:`_Chain`) on to step ``until``; return it.
 
-    BLAS is held to one thread: the chain's arithmetic is then the same in
-    any worker (process or thread) of any joblib backend.
+    BLAS threads by :func:`~skmba._threads.blas_threads` for a density
+    that factors matrices of order ``blas_order``, as one of the tasks of
+    ``Parallel(n_jobs)``.
     """
-    with threadpool_limits(limits=1, user_api="blas"):
+    with blas_threads(blas_order, n_jobs):
         state.advance(log_density, until)
     return state
 

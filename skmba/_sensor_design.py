@@ -35,7 +35,6 @@ from scipy import stats
 from sklearn.base import BaseEstimator, clone
 from sklearn.exceptions import ConvergenceWarning
 from sklearn.utils.validation import check_is_fitted, validate_data
-from threadpoolctl import threadpool_limits
 
 from skmba._calibration import ModularBayesCalibrator
 from skmba._columns import column_names, parameters_last, response_index
@@ -62,6 +61,7 @@ from skmba._progress import Progress, results_as_ready
 from skmba._search import all_subsets, check_max_size, genetic, greedy_forward
 from skmba._subset_likelihood import FieldDesignEmulator
 from skmba._summary import design_table, jackknife_mcse
+from skmba._threads import BlasTask, blas_threads
 from skmba._validation import (
     Boolean,
     Count,
@@ -393,7 +393,10 @@ class PreposteriorDesigner(BaseEstimator):
         -------
         self
         """
-        with threadpool_limits(limits=1, user_api="blas"):
+        # BLAS threads by the package's policy (skmba._threads): one for the
+        # designer's own small blocks, the emulator's fit by its size and the
+        # replicates as joblib tasks.
+        with blas_threads(0):
             return self._fit(X, y)
 
     def _fit(self, X, y):
@@ -438,7 +441,8 @@ class PreposteriorDesigner(BaseEstimator):
         sequences = children[4].spawn(self.n_mc)
         parallel = Parallel(n_jobs=self.n_jobs)
         replicates = []
-        tasks = (delayed(draw_replicate)(ctx, s) for s in sequences)
+        task = BlasTask(draw_replicate, ctx.n * ctx.q, self.n_jobs)
+        tasks = (delayed(task)(ctx, s) for s in sequences)
         with self._progress().bar(
             self.n_mc, "phase 1: replicates", unit="replicate"
         ) as bar:
