@@ -32,7 +32,7 @@ from skmba._gp_checks import (
     check_sample_size,
     warn_at_bounds,
 )
-from skmba._gp_noisy import fit_noisy
+from skmba._gp_noisy import fit_noisy, noise_bounds
 from skmba._gp_search import (
     LikelihoodProblem,
     correlation,
@@ -113,13 +113,17 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
         whose starting roughness is ``10 / range_j^2`` per input with bounds
         ``1e-4 / range_j^2`` to ``1e4 / range_j^2``, so that raw inputs in
         any units start alike. Variances are not part of the kernel: they
-        are ``sigma2_`` (and ``noise_``). A fitted hyperparameter on a bound
-        of its search gives a ``ConvergenceWarning``.
+        are ``sigma2_`` (and ``noise_``). A fitted kernel hyperparameter on
+        a bound of its search gives a ``ConvergenceWarning``.
     regression : {"constant", "linear", "quadratic"}, default="constant"
         Polynomial mean (regpoly0/1/2).
     noise : bool, default=False
-        Estimate one noise variance per response (``noise_``). Without it the
-        GP interpolates the training data (deterministic simulators).
+        Estimate one noise variance per response (``noise_``), searched
+        between 1e-8 and 10 times the response's variance. Without it the
+        GP interpolates the training data (deterministic simulators). A
+        noise variance on a bound gives a ``ConvergenceWarning``: at the
+        lower bound the data look noise-free for that response (consider
+        ``noise=False``).
     alpha : float, default=1e-10
         Nugget added to the diagonal of the correlation matrix, in units of
         correlation (i.e. as a fraction of the process variance). When the
@@ -374,8 +378,16 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
             fit_path = fit_noisy if self.noise else fit_noise_free
             self.kernel_, self.likelihood_ = fit_path(problem, kernel)
             self.nugget_ = problem.nugget
-            if self.optimizer is not None:
-                warn_at_bounds(self.kernel_, stacklevel=4)
+            noise = None
+            if self.noise:  # in the units of y
+                variance = self._y_std[self.active_responses_] ** 2
+                noise = (
+                    np.flatnonzero(self.active_responses_),
+                    self.likelihood_.ke.lam * variance,
+                    noise_bounds(Ya) * variance[:, None],
+                )
+            searched = self.kernel_ if self.optimizer is not None else None
+            warn_at_bounds(searched, stacklevel=4, noise=noise)
         self._set_user_attributes(Y.shape[1], p)
         return self
 
@@ -584,7 +596,8 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
         ----------
         X : array-like of shape (n_points, n_features)
         n_samples : int, default=1
-        random_state : int, RandomState instance or None, default=0
+        random_state : int, RandomState, Generator, SeedSequence or None, default=0
+            Seeds the draws.
 
         Returns
         -------

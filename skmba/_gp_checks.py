@@ -5,8 +5,8 @@ own checks let through but that no Gaussian process can be fitted to: values
 whose squares overflow float64, too few samples for the regression terms or
 for the response covariance, identical inputs, regression terms that the
 inputs cannot identify and, without noise, duplicated inputs with different
-responses. After the fit, :func:`warn_at_bounds` reports hyperparameters
-held by a bound of their search.
+responses. After the fit, :func:`warn_at_bounds` reports kernel
+hyperparameters and noise variances held by a bound of their search.
 
 Examples
 --------
@@ -22,6 +22,8 @@ import warnings
 
 import numpy as np
 from sklearn.exceptions import ConvergenceWarning
+
+from skmba._gp_search import LOG_NOISE_BOUNDS
 
 # Inputs and responses beyond this magnitude overflow float64 when squared.
 _MAX_MAGNITUDE = 1e150
@@ -165,14 +167,31 @@ def check_covariance_size(n, q, p, regression):
         )
 
 
-def warn_at_bounds(kernel, stacklevel=2):
-    """A ``ConvergenceWarning`` per optimised hyperparameter on a bound.
+def warn_at_bounds(kernel, stacklevel=2, *, noise=None):
+    """A ``ConvergenceWarning`` per fitted hyperparameter on a bound.
 
     As scikit-learn's ``GaussianProcessRegressor``: a value within
     ``numpy.isclose`` of a bound of its (log) search interval may be held
     there by the bound rather than by the data. Fixed hyperparameters are
     not reported.
+
+    Parameters
+    ----------
+    kernel : sklearn Kernel or None
+        The fitted kernel, whose optimised hyperparameters are checked
+        (None: none are).
+    stacklevel : int, default=2
+    noise : tuple (responses, values, bounds), default=None
+        The fitted noise variances of a noisy fit: the responses' indices
+        (in ``y``), their noise variances, shape (q,), and the bounds of
+        their search, shape (q, 2), in the same units. A noise variance at
+        its lower bound means data that look noise-free; at its upper bound,
+        a response that looks like noise alone.
     """
+    if noise is not None:
+        _warn_noise_at_bounds(*noise, stacklevel=stacklevel + 1)
+    if kernel is None:
+        return
     theta, bounds = kernel.theta, kernel.bounds
     k = 0
     for hyp in kernel.hyperparameters:
@@ -203,3 +222,32 @@ def warn_at_bounds(kernel, stacklevel=2):
                 ConvergenceWarning,
                 stacklevel=stacklevel,
             )
+
+
+def _warn_noise_at_bounds(responses, values, bounds, stacklevel):
+    """The noise part of :func:`warn_at_bounds`."""
+    low, high = np.exp(LOG_NOISE_BOUNDS)
+    for j, value, (lo, hi) in zip(responses, values, bounds, strict=True):
+        if np.isclose(np.log(value), np.log(lo)):
+            side, bound = "lower", lo
+            meaning = (
+                "the data look noise-free for this response. Consider "
+                "noise=False (with a small response_nugget, e.g. 1e-8, if "
+                "responses are exact combinations of others)"
+            )
+        elif np.isclose(np.log(value), np.log(hi)):
+            side, bound = "upper", hi
+            meaning = (
+                "the response looks like noise alone, with no smooth trend "
+                "in the inputs. Check that the inputs drive this response, "
+                "or try a rougher kernel"
+            )
+        else:
+            continue
+        warnings.warn(
+            f"The fitted noise variance of response {j} ({value:.4g}) is at "
+            f"the {side} bound {bound:.4g} of its search (the bounds are "
+            f"{low:.3g} and {high:.3g} times the response's variance): {meaning}.",
+            ConvergenceWarning,
+            stacklevel=stacklevel,
+        )

@@ -100,6 +100,21 @@ class _ProfileLikelihood:
         )
 
 
+def noise_bounds(Y):
+    """Search bounds of each response's noise variance, shape (q, 2).
+
+    ``LOG_NOISE_BOUNDS`` relative to each response's variance: from 1e-8
+    (the data are all but noise-free) to 10 times it (all noise).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> noise_bounds(np.array([[0.0, 0.0], [2.0, 20.0]])).round(12).tolist()
+    [[1e-08, 10.0], [1e-06, 1000.0]]
+    """
+    return np.exp(LOG_NOISE_BOUNDS) * Y.std(axis=0)[:, None] ** 2
+
+
 def fit_noisy(problem, kernel):
     """Fit ``Sigma2 ⊗ R + Lambda ⊗ I`` on the profile likelihood (module doc).
 
@@ -120,7 +135,7 @@ def fit_noisy(problem, kernel):
         cov = np.atleast_2d(np.cov(Y, rowvar=False, bias=True))
         sigma2 = 0.9 * cov + 1e-3 * np.diag(scale**2)
         lam = 0.1 * scale**2
-    lam_bounds = np.exp(LOG_NOISE_BOUNDS) * scale[:, None] ** 2
+    lam_bounds = noise_bounds(Y)
     lam = np.clip(lam, *lam_bounds.T)
     profile = _ProfileLikelihood(problem, kernel, sigma2, lam, lam_bounds)
     if problem.optimizer is not None and kernel.n_dims:

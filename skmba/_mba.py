@@ -380,7 +380,13 @@ def named_simulations(X_sim, theta_sim, y_sim, *, features, parameters, response
 
 def checked_prior(prior, given, names=None):
     """The checked prior; uniform over ``theta_sim`` when None, named by
-    ``names`` (the columns of a theta_sim table) when given."""
+    ``names`` (the columns of a theta_sim table) when given.
+
+    The range is that of the successful runs; when every row of ``y_sim``
+    failed, that of all the rows of ``theta_sim``, so that the fit goes on
+    to :func:`~skmba._simulations.check_failed_runs`, which says that too
+    few runs remain (or to the simulator's runs, when there is one).
+    """
     if prior is not None:
         return check_prior(prior, None if given is None else given.theta.shape[1])
     if given is None:
@@ -389,6 +395,8 @@ def checked_prior(prior, given, names=None):
             "simulator: pass e.g. prior=[scipy.stats.uniform(lo, hi - lo)]."
         )
     t = given.theta
+    if len(t) == 0:  # every row of y_sim failed: their theta are still known
+        t = np.array([f.theta for f in given.failures]).reshape(-1, t.shape[1])
     uniforms = [
         stats.uniform(lo, hi - lo) for lo, hi in zip(t.min(0), t.max(0), strict=True)
     ]

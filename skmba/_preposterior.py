@@ -17,7 +17,10 @@ Examples
 --------
 >>> import numpy as np
 >>> from skmba._preposterior import criterion_value
->>> criterion_value(np.diag([1.0, 4.0]), np.array([1.0, 2.0]), "trace")
+>>> criterion_value(np.diag([1.0, 4.0]), np.diag([1.0, 4.0]), "trace")
+1.0
+>>> prior_cov = np.array([[1.0, 0.8], [0.8, 1.0]])
+>>> round(criterion_value(prior_cov, prior_cov, "max_eig"), 12)
 1.0
 """
 
@@ -29,6 +32,7 @@ from numbers import Real
 import numpy as np
 from joblib import delayed, effective_n_jobs
 from scipy import special, stats
+from scipy.linalg import solve_triangular
 from sklearn.base import clone
 from sklearn.exceptions import ConvergenceWarning
 
@@ -57,19 +61,47 @@ DEFAULT_DISCREPANCY_PRIOR = {
 DEFAULT_NOISE_PRIOR = (0.0, 1e-4)
 
 
-def criterion_value(cov, prior_sd, criterion):
-    """Norm of a covariance scaled by the prior's standard deviations.
+def criterion_value(cov, prior_cov, criterion):
+    """Norm of a covariance whitened by the prior's covariance.
 
-    Each norm is 1 at the prior's own covariance, for any number of
-    parameters: the trace is divided by ``r`` (the mean variance ratio).
+    Each parameter is first divided by its prior standard deviation (units
+    drop out), then the covariance is whitened by the Cholesky factor ``L``
+    of the prior's correlation matrix, ``S = L^-1 C L^-T``, and the
+    criterion is the trace of ``S`` over ``r``, ``det(S)^(1/r)`` or the
+    largest eigenvalue of ``S``. Each is exactly 1 at the prior's own
+    covariance, for any number of parameters and any prior correlation;
+    with independent parameters (``L`` the identity) ``S`` is the
+    covariance scaled by the prior standard deviations.
+
+    Parameters
+    ----------
+    cov : ndarray of shape (r, r)
+        The (preposterior) covariance of ``theta`` to score.
+    prior_cov : ndarray of shape (r, r)
+        The prior covariance of ``theta``, in the units of ``cov``.
+    criterion : {"trace", "det", "max_eig"}
+
+    Returns
+    -------
+    float
     """
-    scaled = cov / np.outer(prior_sd, prior_sd)
+    prior_cov = np.atleast_2d(np.asarray(prior_cov, dtype=float))
+    sd = np.sqrt(np.diag(prior_cov))
+    scale = np.outer(sd, sd)
+    scaled = np.atleast_2d(cov) / scale
+    correlation = prior_cov / scale
+    # Exactly 1 on the diagonal: an independent prior whitens by the
+    # identity, which leaves the scaled covariance bit for bit.
+    np.fill_diagonal(correlation, 1.0)
+    L = np.linalg.cholesky(correlation)
+    half = solve_triangular(L, scaled, lower=True)  # L^-1 C
+    S = solve_triangular(L, half.T, lower=True).T  # L^-1 C L^-T
+    r = len(S)
     if criterion == "trace":
-        return float(np.trace(scaled)) / len(scaled)
+        return float(np.trace(S)) / r
     if criterion == "det":
-        r = len(scaled)
-        return float(max(np.linalg.det(scaled), 0.0) ** (1.0 / r))
-    return float(np.linalg.eigvalsh(scaled)[-1])
+        return float(max(np.linalg.det(S), 0.0) ** (1.0 / r))
+    return float(np.linalg.eigvalsh(S)[-1])
 
 
 class MonteCarloContext:

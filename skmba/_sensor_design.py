@@ -94,10 +94,14 @@ class PreposteriorDesigner(BaseEstimator):
 
     Parameters
     ----------
-    prior : list of frozen scipy.stats distributions, frozen \
+    prior : list or dict of frozen scipy.stats distributions, frozen \
             multivariate_normal or object with ``logpdf``/``rvs``, default=None
-        Prior of the ``r`` calibration parameters, the last ``r`` columns of
-        ``X`` in :meth:`fit`. None takes the ``calibrator``'s prior.
+        Prior of the ``r`` calibration parameters. Their columns in ``X``
+        (:meth:`fit`) are the last ``r`` ones, except that a dict ``{name:
+        distribution}`` with a DataFrame ``X`` finds them by its keys,
+        wherever they are. A correlated prior (e.g. a frozen
+        ``multivariate_normal``) whitens the ``criterion``. None takes the
+        ``calibrator``'s prior.
     calibrator : ModularBayesCalibrator, default=None
         Template of the MBA settings used (model and discrepancy kernels and
         regressions, ``module2_variance``, ``emulator_alpha``,
@@ -169,13 +173,18 @@ class PreposteriorDesigner(BaseEstimator):
     max_responses : int, default=None
         Largest number of sensors in a subset (None: all ``q``).
     criterion : {"trace", "det", "max_eig"}, default="trace"
-        Norm of the preposterior covariance after scaling each parameter by
-        its prior standard deviation, so that parameters of different units
-        are comparable and a score of 1 means "no better than the prior":
-        the trace over ``r`` (the mean of the variance ratios), the
-        determinant to the power ``1/r`` (geometric mean) or the largest
-        eigenvalue: each is 1 at the prior. For one parameter all three are
-        the posterior-to-prior variance ratio.
+        Norm of the preposterior covariance ``C`` whitened by the prior
+        covariance, so that parameters of different units are comparable
+        and a score of 1 means "no better than the prior": each parameter
+        is scaled by its prior standard deviation, then ``S = L^-1 C L^-T``
+        with ``L`` the Cholesky factor of the prior correlation matrix. The
+        score is the trace of ``S`` over ``r``, the determinant of ``S`` to
+        the power ``1/r`` (geometric mean of its eigenvalues) or its largest
+        eigenvalue: each is exactly 1 at the prior, correlated or not. With
+        independent parameters ``S`` is ``C`` scaled by the prior standard
+        deviations (the trace criterion is then the mean of the
+        posterior-to-prior variance ratios); for one parameter all three
+        are the posterior-to-prior variance ratio.
     fast : bool, default=True
         Estimate the discrepancy hyperparameters once per replicate with all
         responses and reuse them, restricted, for every subset (phase 1 /
@@ -255,8 +264,15 @@ class PreposteriorDesigner(BaseEstimator):
     n_responses_ : int
     response_names_ : list of str or None
         The column names of ``y`` when it is a pandas DataFrame (used by
-        :meth:`summary` and :meth:`score_subset`), else None.
+        :meth:`summary`, :meth:`score_subset` and the ``subsets`` of the
+        plots of :mod:`skmba.plotting`), else None.
     n_features_in_ : int
+    feature_names_in_ : ndarray of str of shape (d + r,)
+        The column names of ``X``, design variables first and calibration
+        parameters last: with a dict ``prior`` the parameter columns are
+        found by name and moved last, so this need not be the order of the
+        DataFrame's columns. Only when ``X`` is a DataFrame with string
+        column names.
 
     See Also
     --------
@@ -434,7 +450,7 @@ class PreposteriorDesigner(BaseEstimator):
         priors = synthetic_data_priors(self, d, q, scaler.y_scale)
         X_design = field_design(self.X_design, self.n_design, X_sim, seeds[2])
         ctx = self._context(cal, prior, priors, scaler, emulator, X_design, seeds)
-        prior_sd = np.sqrt(np.diag(prior.cov()))
+        prior_cov = prior.cov()
         self._log("step 1: emulator and prior-integrated emulator", started)
 
         # Step 2, phase 1: replicates and (fast) their discrepancy estimates.
@@ -453,12 +469,12 @@ class PreposteriorDesigner(BaseEstimator):
 
         # Phase 2: posterior moments for the subsets the search asks for.
         results = self._search(
-            parallel, ctx, replicates, q, max_size, prior_sd, seeds[2], started
+            parallel, ctx, replicates, q, max_size, prior_cov, seeds[2], started
         )
 
         # Step 3: preposterior covariance and its norm.
         self._set_fitted(
-            results, replicates, prior, prior_sd, q, X_design, emulator.gp, names
+            results, replicates, prior, prior_cov, q, X_design, emulator.gp, names
         )
         unconverged = sum(rep.n_unconverged for rep in replicates)
         if unconverged:
@@ -521,7 +537,7 @@ class PreposteriorDesigner(BaseEstimator):
         ctx.pieces = design.pieces(ctx.std_theta(ctx.nodes))
         return ctx
 
-    def _search(self, parallel, ctx, replicates, q, max_size, prior_sd, seed, started):
+    def _search(self, parallel, ctx, replicates, q, max_size, prior_cov, seed, started):
         """Phase 2: the posterior moments of every subset the search scores.
 
         Each batch of new subsets the search asks for runs in joblib tasks
@@ -572,7 +588,7 @@ class PreposteriorDesigner(BaseEstimator):
                     f"({time.perf_counter() - started:.1f} s)"
                 )
             return [
-                criterion_value(results[s][1].mean(axis=0), prior_sd, self.criterion)
+                criterion_value(results[s][1].mean(axis=0), prior_cov, self.criterion)
                 for s in subsets
             ]
 
@@ -595,12 +611,12 @@ class PreposteriorDesigner(BaseEstimator):
         return results
 
     def _set_fitted(
-        self, results, replicates, prior, prior_sd, q, X_design, gp, names=None
+        self, results, replicates, prior, prior_cov, q, X_design, gp, names=None
     ):
         """Step 3 and every fitted attribute, in one place."""
 
         def score(cov):
-            return criterion_value(cov, prior_sd, self.criterion)
+            return criterion_value(cov, prior_cov, self.criterion)
 
         subsets = sorted(results, key=lambda s: (len(s), s))
         covs = np.array([results[s][1] for s in subsets])  # (S, n_mc, r, r)

@@ -242,6 +242,15 @@ BAD_INPUT = [
         params=dict(prior=None),
         sims=sims_with(theta_sim=with_value(BAD.theta_sim, (5, 0), np.nan)),
     ),
+    case(
+        "y_sim-all-nan-without-prior",
+        ValueError,
+        r"0 simulations after 30 row\(s\) of y_sim hold NaN or inf \(30x "
+        r"non-finite output \[nan, nan\]\) are too few to fit an emulator: "
+        r"regression='constant' on d \+ r = 2 inputs needs at least 3",
+        params=dict(prior=None),
+        sims=sims_with(y_sim=np.full_like(BAD.y_sim, np.nan)),
+    ),
     # shapes and dimensions
     case(
         "X-1d",
@@ -1221,14 +1230,11 @@ def test_simulation_tables_are_matched_by_column_name():
         theta_sim=data.theta_sim,
         y_sim=data.y_sim,
     )
+    # The same fit bit for bit: reordered tables and arrays alike.
     for other in (shuffled, arrays):
-        np.testing.assert_allclose(
-            other.theta_samples_, ordered.theta_samples_, rtol=1e-10, atol=0
-        )
+        np.testing.assert_array_equal(other.theta_samples_, ordered.theta_samples_)
         X_new = t["X"][:3] if other is shuffled else data.X_obs[:3]
-        np.testing.assert_allclose(
-            other.predict(X_new), ordered.predict(t["X"][:3]), rtol=1e-10
-        )
+        np.testing.assert_array_equal(other.predict(X_new), ordered.predict(t["X"][:3]))
     assert list(ordered.feature_names_in_) == ["F", "M"]
     assert ordered.response_names_ == ["tip", "energy"]
     assert ordered.parameter_names_ == ["E", "I"]

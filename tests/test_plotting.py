@@ -955,3 +955,67 @@ def test_designer_figures_named_by_response_names(designer, tmp_path):
         plot_criterion_vs_bias(
             designer.scores_, bias, subsets=designer.subsets_, names=["A", "B"]
         )
+
+
+def test_designer_subsets_by_response_name(designer):
+    """Response names go wherever indices do, resolved against the
+    designer's response_names_ (the columns of a DataFrame y), or against
+    names= with plain scores; names and indices mix."""
+    names = ["tip", "energy", "rotation", "mid", "quarter", "shear", "strain"]
+    named = SimpleNamespace(**vars(designer), response_names_=names)
+    ax = plot_convergence(named, subsets=[("tip",), ("energy", "tip"), (2, "mid")])
+    assert [line.get_label() for line in ax.get_lines()] == [
+        "tip",
+        "tip, energy",
+        "rotation, mid",
+    ]
+    for line, subset in zip(ax.get_lines(), [(0,), (0, 1), (2, 3)], strict=True):
+        index = designer.subsets_.index(subset)
+        np.testing.assert_array_equal(line.get_ydata(), designer.convergence_[:, index])
+    by_index = plot_convergence(named, subsets=[(0,), (1, 0), (2, 3)])
+    for a, b in zip(ax.get_lines(), by_index.get_lines(), strict=True):
+        np.testing.assert_array_equal(a.get_ydata(), b.get_ydata())
+
+    # With a designer, against its response_names_ ...
+    bias = np.linspace(0.0, 1.0, len(designer.scores_))
+    spelled = [tuple(names[k] for k in s) for s in designer.subsets_]
+    ax = plot_criterion_vs_bias(named, bias, subsets=spelled, annotate=True)
+    reference = plot_criterion_vs_bias(named, bias, annotate=True)
+    assert [t.get_text() for t in ax.texts] == [t.get_text() for t in reference.texts]
+    assert ax.texts[7].get_text() == "tip, energy"
+    for a, b in zip(ax.collections, reference.collections, strict=True):
+        np.testing.assert_array_equal(a.get_offsets(), b.get_offsets())
+    # ... and with plain scores, against names=.
+    scores = designer.scores_[[0, 7, 6]]
+    ax = plot_criterion_vs_bias(
+        scores,
+        bias[:3],
+        subsets=[("tip",), ("energy", "tip"), ("strain",)],
+        names=names,
+        annotate=True,
+    )
+    assert [t.get_text() for t in ax.texts] == ["tip", "energy, tip", "strain"]
+    singles = next(c for c in ax.collections if isinstance(c, PathCollection))
+    np.testing.assert_array_equal(
+        singles.get_offsets(), np.c_[bias[:3], scores][[0, 2]]
+    )
+
+    # Unknown names: a ValueError naming the argument and listing the names.
+    with pytest.raises(
+        ValueError,
+        match=r"subsets entry \('tip', 'torsion'\): unknown response 'torsion'; "
+        r"the responses are \['tip', 'energy', 'rotation', 'mid', 'quarter', "
+        r"'shear', 'strain'\]",
+    ):
+        plot_convergence(named, subsets=[("tip", "torsion")])
+    with pytest.raises(ValueError, match=r"subsets entry \('torsion',\): unknown"):
+        plot_criterion_vs_bias(
+            scores, bias[:3], subsets=[("tip",), ("torsion",), (6,)], names=names
+        )
+    # Names without names to resolve them: what to do instead.
+    with pytest.raises(ValueError, match="fitted on an array y without names"):
+        plot_convergence(designer, subsets=[("tip",)])
+    with pytest.raises(ValueError, match=r"no response names: pass names="):
+        plot_criterion_vs_bias(scores, bias[:3], subsets=[("tip",), (0, 1), (6,)])
+    with pytest.raises(TypeError, match="tuples of response indices or names"):
+        plot_convergence(named, subsets=["tip"])

@@ -7,11 +7,12 @@ import joblib
 import numpy as np
 import pytest
 from integration._helpers import designer, table_6_2_on_a_common_scale
-from scipy import stats
+from scipy import linalg, stats
 from sklearn.base import clone
 from sklearn.gaussian_process.kernels import RBF
 
 from skmba import ModularBayesCalibrator, PreposteriorDesigner
+from skmba._preposterior import criterion_value
 from skmba.datasets import make_cantilever
 
 
@@ -91,6 +92,56 @@ def test_criteria_are_norms_of_the_same_covariance(small):
     np.testing.assert_allclose(scores["max_eig"], np.linalg.eigvalsh(scaled)[:, -1])
 
 
+@pytest.mark.parametrize("criterion", ["trace", "det", "max_eig"])
+def test_a_correlated_prior_scores_one_under_every_criterion(criterion):
+    """The criterion whitens by the prior covariance: a preposterior
+    covariance equal to a correlated prior's scores 1, whatever r and the
+    units; with independent parameters it is the covariance scaled by the
+    prior standard deviations, bit for bit as before the whitening."""
+    rng = np.random.default_rng(0)
+    for r in (2, 3):
+        units = np.array([2e4, 3e-3, 1.0])[:r]
+        A = rng.standard_normal((r, r + 2))
+        correlated = (A @ A.T + 0.1 * np.eye(r)) * np.outer(units, units)
+        corr = correlated / np.outer(units, units)
+        assert np.abs(corr[np.triu_indices(r, 1)]).max() > 0.3
+        assert criterion_value(correlated, correlated, criterion) == pytest.approx(
+            1.0, abs=1e-12
+        )
+        # The cov [[1, .8], [.8, 1]] of the audit scored 1.0, 0.6 and 1.8.
+        rho = np.array([[1.0, 0.8], [0.8, 1.0]])
+        assert criterion_value(rho, rho, criterion) == pytest.approx(1.0, abs=1e-12)
+        # Any covariance: the norm of the eigenvalues of C relative to the
+        # prior (C v = lambda P v), e.g. the prior's variances without its
+        # correlation score trace(R^-1) / r > 1 by the trace.
+        independent = np.diag(np.diag(correlated))
+        ratios = linalg.eigh(independent, correlated, eigvals_only=True)
+        expected = {
+            "trace": ratios.mean(),
+            "det": np.prod(ratios) ** (1.0 / r),
+            "max_eig": ratios.max(),
+        }[criterion]
+        assert criterion_value(independent, correlated, criterion) == pytest.approx(
+            expected, rel=1e-12
+        )
+        assert expected > 1.01  # the scaling by the prior sd alone scored it 1
+
+        diagonal = np.diag(rng.uniform(0.5, 2.0, r) * units**2)
+        B = rng.standard_normal((r, r))
+        cov = (B @ B.T) * np.outer(units, units)
+        sd = np.sqrt(np.diag(diagonal))
+        scaled = cov / np.outer(sd, sd)
+        old = {
+            "trace": np.trace(scaled) / r,
+            "det": max(np.linalg.det(scaled), 0.0) ** (1.0 / r),
+            "max_eig": np.linalg.eigvalsh(scaled)[-1],
+        }[criterion]
+        assert criterion_value(cov, diagonal, criterion) == old
+        assert criterion_value(diagonal, diagonal, criterion) == pytest.approx(
+            1.0, abs=1e-12
+        )
+
+
 def test_same_random_state_same_result_for_any_n_jobs(small, exhaustive):
     data, X = small
     with warnings.catch_warnings():
@@ -99,6 +150,27 @@ def test_same_random_state_same_result_for_any_n_jobs(small, exhaustive):
             other = designer(data.prior, n_jobs=n_jobs).fit(X, data.y_sim)
             np.testing.assert_array_equal(other.scores_, exhaustive.scores_)
             np.testing.assert_array_equal(other.theta_draws_, exhaustive.theta_draws_)
+
+
+def test_a_generator_seeds_the_designer(small):
+    """random_state takes a numpy Generator: two fresh Generators of one
+    seed give the same replicates and scores."""
+    data, X = small
+    fits = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for _ in range(2):
+            d = designer(
+                data.prior,
+                n_mc=2,
+                max_responses=1,
+                random_state=np.random.default_rng(0),
+            )
+            fits.append(d.fit(X, data.y_sim))
+    assert fits[0].subsets_ == [(0,), (1,), (2,)]
+    assert np.all(np.isfinite(fits[0].scores_) & (fits[0].scores_ > 0))
+    np.testing.assert_array_equal(fits[0].scores_, fits[1].scores_)
+    np.testing.assert_array_equal(fits[0].theta_draws_, fits[1].theta_draws_)
 
 
 def test_fast_and_full_rankings_agree(small, exhaustive):

@@ -22,6 +22,7 @@ import textwrap
 import numpy as np
 from sklearn.exceptions import NotFittedError
 
+from skmba._columns import response_index
 from skmba.plotting._common import (
     import_pyplot,
     labels,
@@ -122,9 +123,11 @@ def plot_criterion_vs_bias(
     bias : array-like of shape (n_subsets,)
         Identification bias of each configuration, e.g. ``|E[θ] − θ*| /
         θ*`` from a calibration with those responses.
-    subsets : list of tuple of int, default=None
-        The response indices of each configuration: points are then coloured
-        by the number of sensors.
+    subsets : list of tuple of int or str, default=None
+        The responses of each configuration, as 0-based indices or names:
+        points are then coloured by the number of sensors. Names are those
+        of the designer's ``response_names_`` when ``scores`` is a designer,
+        else those of ``names``.
     names : list of str, default=None
         Names of the responses, for the labels; None takes the designer's
         ``response_names_`` when ``scores`` is a designer that has them,
@@ -186,9 +189,11 @@ def plot_convergence(designer, *, subsets=None, names=None, ax=None):
     designer : PreposteriorDesigner
         Fitted (``subsets_``, ``scores_``, ``convergence_``,
         ``n_responses_``).
-    subsets : list of tuple of int, default=None
-        The configurations to draw (as response indices, in any order); by
-        default the best one of each size, at most 5 (sizes evenly spread).
+    subsets : list of tuple of int or str, default=None
+        The configurations to draw, as 0-based response indices or names of
+        the designer's ``response_names_`` (the columns of a DataFrame
+        ``y``), in any order; by default the best one of each size, at most
+        5 (sizes evenly spread).
     names : list of str, default=None
         Names of the ``q`` responses; None takes the designer's
         ``response_names_`` when it has them, else ``y0, y1, ...``.
@@ -225,7 +230,8 @@ def plot_convergence(designer, *, subsets=None, names=None, ax=None):
     if subsets is None:
         chosen = _best_of_spread_sizes(all_subsets, scores)
     else:
-        chosen = _indices_of(subsets, all_subsets)
+        recorded = recorded_names(designer, "response_names_", q, "responses")
+        chosen = _indices_of(_by_index(subsets, recorded, q), all_subsets)
     ax = single_axes(ax, (6.4, 4.2))
     replicates = np.arange(1, len(running) + 1)
     for n, index in enumerate(chosen):
@@ -306,7 +312,13 @@ def _configurations(scores, bias, subsets, names, annotate):
         designer_subsets, scores, q = _designer_arrays(designer)
         if subsets is None:
             subsets = designer_subsets
+        else:
+            recorded = recorded_names(designer, "response_names_", q, "responses")
+            subsets = _by_index(subsets, recorded, q)
         names = _response_names(designer, names, q)
+    elif subsets is not None:
+        given = None if names is None else [str(n) for n in names]
+        subsets = _by_index(subsets, given, None if given is None else len(given))
     try:
         scores = np.asarray(scores, dtype=float).reshape(-1)
         bias = np.asarray(bias, dtype=float).reshape(-1)
@@ -366,6 +378,42 @@ def _best_of_spread_sizes(subsets, scores):
     return [best[s] for s in sizes]
 
 
+def _by_index(subsets, names, q):
+    """``subsets`` with each response name replaced by its 0-based index.
+
+    Names are resolved by :func:`~skmba._columns.response_index` against
+    ``names`` (the designer's ``response_names_``, or the ``names`` given
+    with plain scores, when ``q`` is None); integers are left to the
+    caller's checks.
+    """
+    resolved = []
+    for subset in subsets:
+        if isinstance(subset, str) or not np.iterable(subset):
+            raise TypeError(
+                "subsets must be a list of tuples of response indices or "
+                f"names, e.g. [(0,), (0, 2)] or [('tip',)]; got the entry "
+                f"{subset!r}."
+            )
+        if names is None and q is None and any(isinstance(k, str) for k in subset):
+            # Plain scores without names= (a designer without names gets
+            # response_index's message).
+            raise ValueError(
+                f"subsets entry {tuple(subset)!r} names responses, but there "
+                "are no response names: pass names= (the names of the "
+                "responses, in order), or give 0-based indices."
+            )
+        try:
+            resolved.append(
+                tuple(
+                    response_index(k, names, q) if isinstance(k, str) else k
+                    for k in subset
+                )
+            )
+        except ValueError as error:
+            raise ValueError(f"subsets entry {tuple(subset)!r}: {error}") from None
+    return resolved
+
+
 def _indices_of(subsets, evaluated):
     """Index in ``evaluated`` of each subset (its indices in any order)."""
     lookup = {frozenset(s): i for i, s in enumerate(evaluated)}
@@ -375,8 +423,8 @@ def _indices_of(subsets, evaluated):
             key = frozenset(int(k) for k in subset)
         except TypeError:
             raise TypeError(
-                "subsets must be a list of tuples of response indices, "
-                f"e.g. [(0,), (0, 2)]; got the entry {subset!r}."
+                "subsets must be a list of tuples of response indices or "
+                f"names, e.g. [(0,), (0, 2)]; got the entry {subset!r}."
             ) from None
         if key not in lookup:
             raise ValueError(
