@@ -59,6 +59,8 @@ PROPOSAL_DF = 5.0
 N_HYPER_DRAWS = 16
 #: Share of the proposal (and of the draws) that is the prior itself.
 PRIOR_SHARE = 0.25
+#: Draws of the importance estimate of the noise variances' posterior mean.
+N_NOISE_DRAWS = 512
 # Step of the finite-difference Hessian (of the analytic gradient).
 _HESSIAN_STEP = 1e-4
 # Variance given to a flat direction of the Laplace approximation.
@@ -90,12 +92,23 @@ class HyperposteriorDraws:
         ``log p(phi_k) - log q(phi_k)``, normalised to sum to one.
     laplace_cov : ndarray
         Covariance of the Laplace approximation (unbounded coordinates).
+    noise_mean : ndarray of shape (q,)
+        Posterior mean of the noise variances, an importance estimate with
+        :data:`N_NOISE_DRAWS` draws of the same proposal weighted by the
+        module-2 posterior: the noise a new observation adds. The ``K``
+        draws module 3 mixes over give it poorly (their likelihood weights
+        at any theta fall on a few draws near the mode), and the mode
+        underestimates it (the noise posterior is skewed to the right).
+    noise_ess : float
+        Effective sample size of that estimate (Kish).
     """
 
     mode: DiscrepancyFit
     components: list
     log_weights: np.ndarray
     laplace_cov: np.ndarray
+    noise_mean: np.ndarray
+    noise_ess: float
 
     @property
     def regression(self):
@@ -211,7 +224,8 @@ def _laplace_cov(coords, v):
 
 
 def _proposal_draws(coords, mode, cov, n_draws, seed):
-    """Draws of the defensive proposal and the log importance weights.
+    """Draws of the defensive proposal, their log prior and log proposal
+    densities (the log importance weights for the prior are the difference).
 
     The proposal ``q = (1 - a) t + a p`` mixes the Student-t around the mode
     (scrambled Halton) with the prior ``p`` itself (share ``a`` =
@@ -235,7 +249,25 @@ def _proposal_draws(coords, mode, cov, n_draws, seed):
     log_t = np.atleast_1d(stats.multivariate_t(mode, cov, df=PROPOSAL_DF).logpdf(draws))
     log_p = np.array([coords.log_prior_normalised(v) for v in draws])
     log_q = np.logaddexp(np.log1p(-PRIOR_SHARE) + log_t, np.log(PRIOR_SHARE) + log_p)
-    return draws, log_p - log_q
+    return draws, log_p, log_q
+
+
+def _noise_posterior_mean(coords, mode, cov, seed):
+    """Posterior mean of the noise variances and its effective sample size.
+
+    Self-normalised importance sampling with :data:`N_NOISE_DRAWS` draws of
+    the defensive proposal of :func:`_proposal_draws`, weighted by the
+    module-2 posterior (restricted likelihood, prior and Jacobian).
+    """
+    draws, _, log_q = _proposal_draws(coords, mode, cov, N_NOISE_DRAWS, seed)
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+        log_post = np.array(
+            [coords.log_posterior(v, eval_gradient=False) for v in draws]
+        )
+    log_w = np.where(np.isfinite(log_post), log_post - log_q, -np.inf)
+    w = np.exp(log_w - special.logsumexp(log_w))
+    noise = np.array([coords.fit.unpack(coords.to_p(v)[0])[1] for v in draws])
+    return w @ noise, float(1.0 / np.sum(w**2))
 
 
 def fit_hyperposterior(
@@ -306,7 +338,7 @@ def fit_hyperposterior(
     else:
         fit.fix_noise(1e-10)
     coords = _Coordinates(fit, prior)
-    mode_seed, draw_seed = seed_sequence(random_state).spawn(2)
+    mode_seed, draw_seed, noise_seed = seed_sequence(random_state).spawn(3)
     rng = np.random.default_rng(mode_seed)
     p0 = fit.start()
     starts = [coords.to_v(p0)]
@@ -336,7 +368,8 @@ def fit_hyperposterior(
     fit.kernel_, fit.sigma2, fit.noise, fit.beta = fit.last
     fit.params = mode_p
     cov = _laplace_cov(coords, best.x)
-    draws, log_w = _proposal_draws(coords, best.x, cov, n_draws, draw_seed)
+    draws, log_p, log_q = _proposal_draws(coords, best.x, cov, n_draws, draw_seed)
+    log_w = log_p - log_q
     log_w -= special.logsumexp(log_w)
     components = []
     for v in draws:
@@ -344,4 +377,6 @@ def fit_hyperposterior(
         kern = fit.kernel.clone_with_theta(theta) if k else fit.kernel
         sigma2 = L @ L.T
         components.append(DiscrepancyComponent(kern, sigma2, lam, regression))
-    return HyperposteriorDraws(fit, components, log_w, cov)
+    noise_mean, noise_ess = _noise_posterior_mean(coords, best.x, cov, noise_seed)
+    fit.evaluate(mode_p, eval_gradient=False)  # leave fit.last at the mode
+    return HyperposteriorDraws(fit, components, log_w, cov, noise_mean, noise_ess)

@@ -44,6 +44,8 @@ class ModelMixture:
         self._S_fixed = None  # the stacked fixed parts, made on first use
         for name in ("N", "n", "q", "P", "X_e", "noise", "emulator"):
             setattr(self, name, getattr(base, name))
+        # What a new observation adds: the noise variances' posterior mean.
+        self.predictive_noise = np.asarray(draws.noise_mean, dtype=float)
 
     def __copy__(self):
         other = object.__new__(type(self))

@@ -173,6 +173,9 @@ class GlobalModel:
         self.kernel_d = discrepancy.kernel_
         self.sigma2_d = discrepancy.sigma2
         self.noise = np.asarray(discrepancy.noise, dtype=float)
+        # What a new observation adds to the reality (module 4): the plugged
+        # noise here; a ModelMixture holds its posterior mean.
+        self.predictive_noise = self.noise
         self.S_fixed = observed_block(
             np.kron(self.sigma2_d, self.kernel_d(self.X_e))
             + np.kron(np.diag(self.noise), np.eye(self.n)),

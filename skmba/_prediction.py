@@ -206,6 +206,14 @@ def predict_component(model, rule, Xs, component, *, return_std, n_jobs=None):
         Law of total variance over the posterior (Eqs. 4.34, 4.41).
     """
     thetas, w = rule.thetas, rule.weights
+    if component == "observation":
+        # A new observation is the reality plus noise independent of it:
+        # its variance adds the noise variances' posterior mean (over the
+        # module-2 hyperparameters, see ``model.predictive_noise``).
+        mean, var = predict_component(
+            model, rule, Xs, "reality", return_std=return_std, n_jobs=n_jobs
+        )
+        return mean, None if var is None else var + model.predictive_noise
     if rule.draws is None:
         models = [model] * len(thetas)
     else:

@@ -107,6 +107,39 @@ def test_restricted_noise_is_not_biased_low():
     assert 0.8 < np.mean(ratios) < 1.2
 
 
+@pytest.mark.parametrize("seed", [0, 1])
+def test_noise_posterior_mean_is_the_inverse_gamma_mean(seed):
+    # Pure noise around a linear trend (p = 2 terms), a negligible
+    # discrepancy and no emulator variance: under the log-uniform noise prior
+    # and the restricted likelihood, each noise variance's posterior is
+    # inverse-gamma((n - p) / 2, SS / 2), SS the least-squares residual sum of
+    # squares, of mean SS / (n - p - 2). (The mode module 2 reports is that of
+    # its unbounded coordinates, a logit of the log variance: lower still.)
+    n, p = 20, 2
+    rng = np.random.default_rng(seed)
+    X = np.linspace(-1.7, 1.7, n)[:, None]
+    Y = np.column_stack([0.5 * X[:, 0], -0.2 * X[:, 0]])
+    Y = Y + np.array([0.1, 0.2]) * rng.normal(size=Y.shape)
+    H = np.column_stack([np.ones(n), X[:, 0]])
+    ss = np.sum((Y - H @ np.linalg.lstsq(H, Y, rcond=None)[0]) ** 2, axis=0)
+    draws = fit_hyperposterior(
+        X,
+        Y,
+        np.zeros((2 * n, 2 * n)),
+        prior=Hyperprior(sd_scale=1e-3),
+        regression="linear",
+        n_draws=2,
+        random_state=seed,
+    )
+    mean = ss / (n - p - 2)
+    # Importance-sampling error: the posterior's coefficient of variation,
+    # sqrt(2 / (n - p - 4)), over the square root of the effective size.
+    se = mean * np.sqrt(2 / (n - p - 4)) / np.sqrt(draws.noise_ess)
+    assert draws.noise_ess > 30
+    assert np.all(np.abs(draws.noise_mean - mean) < 4 * se)
+    assert np.all(draws.noise_mean > draws.mode.noise)
+
+
 def test_normalised_prior_integrates_to_one():
     # E over the Student-t proposal of p / t is the integral of p: 1 when
     # the prior density in the unbounded coordinates is normalised.

@@ -26,7 +26,9 @@ def _draws(K=4, seed=0):
             )
         )
     log_w = rng.normal(size=K)
-    return HyperposteriorDraws(None, comps, log_w - special.logsumexp(log_w), None)
+    log_w = log_w - special.logsumexp(log_w)
+    noise_mean = np.exp(log_w) @ np.array([c.noise for c in comps])
+    return HyperposteriorDraws(None, comps, log_w, None, noise_mean, float(K))
 
 
 @pytest.mark.parametrize("theta", [-0.7, 0.1, 0.9])
@@ -56,7 +58,8 @@ def test_one_draw_is_the_plug_in_model(request, dense_global, data):
     problem = request.getfixturevalue(data)
     gm = problem[1]
     comp = DiscrepancyComponent(gm.kernel_d, gm.sigma2_d, gm.noise, "constant")
-    mix = ModelMixture(gm, HyperposteriorDraws(None, [comp], np.zeros(1), None))
+    one = HyperposteriorDraws(None, [comp], np.zeros(1), None, gm.noise, 1.0)
+    mix = ModelMixture(gm, one)
     for theta in (-0.5, 0.4):
         assert mix.log_likelihood(np.array([theta])) == pytest.approx(
             dense_global(problem, theta), rel=1e-8
@@ -105,7 +108,12 @@ def test_restricted_keeps_the_draws_with_weight(problem):
         Gauss(roughness=1.0), 0.1 * np.eye(2), 1e3 * np.ones(2), "constant"
     )
     draws = HyperposteriorDraws(
-        None, [*draws.components, idle], np.append(draws.log_weights, 0.0), None
+        None,
+        [*draws.components, idle],
+        np.append(draws.log_weights, 0.0),
+        None,
+        draws.noise_mean,
+        draws.noise_ess,
     )
     mix = ModelMixture(gm, draws)
     thetas = [np.array([t]) for t in (-0.5, 0.0, 0.5)]
