@@ -313,10 +313,9 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
         :meth:`_fit_reporting`.
         """
         # The package's thread policy (skmba._threads): one BLAS thread for
-        # small designs (a second pool's spinning threads slowed the noisy
-        # q=16 fit of benchmarks/bench_gp.py 17-fold), all the process's
-        # threads from SMALL_ORDER samples on, where the N x N
-        # factorisations dominate.
+        # smaller designs (a second pool's spinning threads slow the noisy
+        # q=16 fit at N=400 10-fold), all the process's threads from
+        # SMALL_ORDER samples on, where the N x N factorisations dominate.
         with blas_threads(len(X) if hasattr(X, "__len__") else 0):
             try:
                 yield

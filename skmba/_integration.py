@@ -140,10 +140,11 @@ def integrate_emulator(emulator, X_e, nodes, weights, *, n_jobs=None, block=64):
     block = nodes_per_block(len(X_e), block)
     starts = range(0, len(nodes), block)
     task = BlasTask(_node_block, len(emulator.Z), n_jobs)
-    parts = Parallel(n_jobs=n_jobs)(
-        delayed(task)(emulator, X_e, nodes[s : s + block], weights[s : s + block])
-        for s in starts
-    )
+    with task.held():
+        parts = Parallel(n_jobs=n_jobs)(
+            delayed(task)(emulator, X_e, nodes[s : s + block], weights[s : s + block])
+            for s in starts
+        )
     means = np.concatenate([p[0] for p in parts])
     mean, spread = weighted_moments(means, weights)
     cond_corr = parts[0][1]

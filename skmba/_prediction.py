@@ -233,16 +233,17 @@ def predict_component(model, rule, Xs, component, *, return_std, n_jobs=None):
         "or use a smaller n_jobs.",
     )
     task = BlasTask(_predict_chunk, n * q, n_jobs)
-    chunks = Parallel(n_jobs=n_jobs)(
-        delayed(task)(
-            models[i : i + _PREDICT_CHUNK],
-            thetas[i : i + _PREDICT_CHUNK],
-            Xs,
-            component,
-            return_std,
+    with task.held():
+        chunks = Parallel(n_jobs=n_jobs)(
+            delayed(task)(
+                models[i : i + _PREDICT_CHUNK],
+                thetas[i : i + _PREDICT_CHUNK],
+                Xs,
+                component,
+                return_std,
+            )
+            for i in range(0, len(thetas), _PREDICT_CHUNK)
         )
-        for i in range(0, len(thetas), _PREDICT_CHUNK)
-    )
     results = [moments for chunk in chunks for moments in chunk]
     if not return_std:
         return np.tensordot(w, np.stack(results), axes=1), None

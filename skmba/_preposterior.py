@@ -485,12 +485,15 @@ def subset_moments(
         for chunk, block in tasks
     )
     parts = []
-    for k, (part, seconds) in enumerate(results_as_ready(calls, n_jobs)):
-        chunk, block = tasks[k]
-        parts.append(part)
-        bar.update(len(chunk) * len(block))
-        if k == 0 and estimate:
-            _announce(seconds, len(chunk) * len(block), len(tasks), n_jobs, progress)
+    with task.held():
+        for k, (part, seconds) in enumerate(results_as_ready(calls, n_jobs)):
+            chunk, block = tasks[k]
+            parts.append(part)
+            bar.update(len(chunk) * len(block))
+            if k == 0 and estimate:
+                _announce(
+                    seconds, len(chunk) * len(block), len(tasks), n_jobs, progress
+                )
     out = {}
     for c, chunk in enumerate(chunks):
         own = parts[c * len(blocks) : (c + 1) * len(blocks)]

@@ -333,9 +333,14 @@ def _run_parallel(
     total = burn_in + n_samples
     segment = -(-total // _PROGRESS_SEGMENTS) if progress.enabled else total
     done = [0] * len(states)
-    with progress.bar(
-        len(states) * total, f"MCMC: {len(states)} chain(s)", unit="step"
-    ) as bar:
+    # The chains' limit held here too: a thread-based backend runs them in
+    # this process (see skmba._threads.BlasTask).
+    with (
+        progress.bar(
+            len(states) * total, f"MCMC: {len(states)} chain(s)", unit="step"
+        ) as bar,
+        blas_threads(blas_order, n_jobs),
+    ):
         until = 0
         while until < total:
             until = min(total, until + segment)

@@ -459,9 +459,12 @@ class PreposteriorDesigner(BaseEstimator):
         replicates = []
         task = BlasTask(draw_replicate, ctx.n * ctx.q, self.n_jobs)
         tasks = (delayed(task)(ctx, s) for s in sequences)
-        with self._progress().bar(
-            self.n_mc, "phase 1: replicates", unit="replicate"
-        ) as bar:
+        with (
+            self._progress().bar(
+                self.n_mc, "phase 1: replicates", unit="replicate"
+            ) as bar,
+            task.held(),
+        ):
             for rep in results_as_ready(tasks, self.n_jobs):
                 replicates.append(rep)
                 bar.update(1)

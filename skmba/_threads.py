@@ -37,11 +37,16 @@ from threadpoolctl import threadpool_info, threadpool_limits
 
 from skmba._linalg import n_workers
 
-#: Matrices of lower order than this are factored on one BLAS thread: on
-#: two cores a Cholesky factorisation, a triangular solve with 8 right-hand
-#: sides and their product gain nothing from a second thread below it
-#: (``benchmarks/bench_threads.py``).
-SMALL_ORDER = 300
+#: Matrices of lower order than this are handled on one BLAS thread.
+#: Measured on two cores (``benchmarks/bench_threads.py``): a Cholesky
+#: factorisation, a triangular solve with 8 right-hand sides and their
+#: product gain 1.3x from a second thread at order 1000 and 1.5x from 2000
+#: on, and lose up to 3x below 600; one MultiResponseGP log-likelihood with
+#: its gradient (where elementwise work weighs as much as the factorisation)
+#: loses 17 % at N = 1000, breaks even at 2000 and gains 1.5x at 4000; a
+#: noisy fit at N = 400 with every thread on is 10x slower (numpy's and
+#: scipy's OpenBLAS pools spin against each other).
+SMALL_ORDER = 2000
 
 
 def _blas_threads_now():
@@ -162,10 +167,18 @@ class BlasTask:
     tasks of ``Parallel(n_jobs)``, in whichever process or thread the
     backend runs it. Picklable when ``func`` is a module-level function.
 
+    The caller holds the same limit around the ``Parallel`` call
+    (``with task.held(): ...``): a thread-based backend runs the tasks in
+    the caller's process, whose BLAS limit is one for all its threads, and
+    a task ending would otherwise restore the caller's threads under the
+    feet of a task still running.
+
     Examples
     --------
     >>> from joblib import Parallel, delayed
-    >>> Parallel(n_jobs=2)(delayed(BlasTask(pow, 10, 2))(2, k) for k in range(3))
+    >>> task = BlasTask(pow, 10, 2)
+    >>> with task.held():
+    ...     Parallel(n_jobs=2)(delayed(task)(2, k) for k in range(3))
     [1, 2, 4]
     """
 
@@ -175,3 +188,7 @@ class BlasTask:
     def __call__(self, *args, **kwargs):
         with blas_threads(self.order, self.n_jobs):
             return self.func(*args, **kwargs)
+
+    def held(self):
+        """The tasks' limit as a context manager, for the caller."""
+        return blas_threads(self.order, self.n_jobs)

@@ -1,5 +1,7 @@
 """The BLAS thread policy (skmba._threads)."""
 
+from contextlib import contextmanager
+
 import numpy as np
 import pytest
 from joblib import Parallel, delayed, parallel_config
@@ -64,11 +66,10 @@ def _threads_inside():
 
 @pytest.mark.parametrize("backend", ["loky", "threading"])
 def test_blas_task_limits_threads_inside_workers(backend):
-    with parallel_config(backend=backend):
-        small = Parallel(n_jobs=2)(
-            delayed(BlasTask(_threads_inside, 10, 2))() for _ in range(2)
-        )
-    assert small == [[1], [1]]
+    task = BlasTask(_threads_inside, 10, 2)
+    with parallel_config(backend=backend), task.held():
+        small = Parallel(n_jobs=2)(delayed(task)() for _ in range(8))
+    assert small == [[1]] * 8
 
 
 def test_describe_threads_names_cores_and_libraries():
@@ -77,17 +78,21 @@ def test_describe_threads_names_cores_and_libraries():
     assert "BLAS:" in line and str(SMALL_ORDER) in line
 
 
-@pytest.mark.parametrize("n", [SMALL_ORDER - 1, SMALL_ORDER])
+@pytest.mark.parametrize("n", [49, 50])
 def test_a_gp_fit_takes_its_threads_by_its_number_of_samples(n, monkeypatch):
+    monkeypatch.setattr("skmba._threads.SMALL_ORDER", 50)
     seen = []
 
+    @contextmanager
     def recording(order, n_jobs=None):
-        seen.append(order)
-        return blas_threads(order, n_jobs)
+        with blas_threads(order, n_jobs) as limit:
+            seen.append((order, limit, sorted(blas_now())))
+            yield limit
 
     monkeypatch.setattr("skmba._gp.blas_threads", recording)
     rng = np.random.default_rng(0)
     X = rng.uniform(size=(n, 2))
     gp = MultiResponseGP(n_restarts_optimizer=0).fit(X, np.sin(3 * X[:, 0]))
-    assert seen == [n]
+    limit = 1 if n < 50 else process_threads()
+    assert seen == [(n, limit, [limit])]
     assert gp.score(X, np.sin(3 * X[:, 0])) > 0.999
