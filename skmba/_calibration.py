@@ -86,6 +86,15 @@ from skmba._validation import (
 _KERNEL = InstanceOf(Kernel, what="an sklearn Kernel", allow_none=True)
 
 
+def _field_order(y):
+    """``n q``, the order of the field block, from ``y`` before its checks
+    (0 when it is not array-like: the checks then say why)."""
+    try:
+        return int(np.asarray(y, dtype=float).size)
+    except (TypeError, ValueError):
+        return 0
+
+
 class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
     """Bayesian calibration of a computer model with model discrepancy.
 
@@ -218,7 +227,11 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         Discrepancy regression coefficients, in response units, of the basis
         evaluated on the standardised inputs.
     noise_ : ndarray of shape (q,)
-        Measurement-noise variances in squared response units.
+        Measurement-noise variances in squared response units: the module-2
+        estimate (the posterior mode under the default ``"propagate"``, in
+        the coordinates of its Laplace approximation, which lies about 12 %
+        below the posterior mean on 20-30 readings per response; ``predict``
+        adds the posterior mean, see the user guide).
     theta_samples_ : ndarray of shape (n_draws, r)
         Posterior draws (pooled chains after burn-in, or draws from the
         quadrature posterior).
@@ -438,7 +451,7 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         # joblib tasks their share of the cores.
         partial = {}
         try:
-            with blas_threads(np.size(y) if y is not None else 0):
+            with blas_threads(_field_order(y)):
                 fitted = self._fit(X, y, X_sim, theta_sim, y_sim, partial)
         except Exception as exc:
             sims = partial.get("simulations")
