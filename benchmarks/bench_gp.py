@@ -11,21 +11,42 @@ Prints, from one run in one process:
    with the ratio to q=2 (the Kronecker-eigen path should keep it far below
    q / 2).
 
+With ``--large`` (issue 15, large emulators) it prints instead:
+
+3. the peak traced memory (tracemalloc, which traces numpy's allocations)
+   and time of one log-likelihood + gradient evaluation at N=3000, d=4,
+   q=4, through the stacked (N, N, n_theta) gradient of the previous
+   implementation and through the per-hyperparameter contraction;
+4. fit + predict wall time, held-out R^2 and peak traced memory of
+   ``MultiResponseGP`` at N=5000, d=4, q=4 (its search starts from a fit on
+   a 1000-point subsample);
+5. the time ratio to sklearn (one ``GaussianProcessRegressor`` per
+   response, anisotropic RBF, the same restarts, ``normalize_y=True``) at
+   N = 500, 1000, 2000.
+
+Every run starts with the threads line of ``skmba._threads``.
+
 Run with ``python benchmarks/bench_gp.py`` (add ``--quick`` for a smaller
-smoke run). Targets: ratio <= 1.0; noisy q=16 under 16x the time of q=2.
+smoke run, ``--large`` for the large emulators). Targets: ratio <= 1.0;
+noisy q=16 under 16x the time of q=2.
 """
 
 import argparse
 import time
+import tracemalloc
 import warnings
 
 import numpy as np
+from scipy import linalg
 from sklearn.exceptions import ConvergenceWarning
 from sklearn.gaussian_process import GaussianProcessRegressor
 from sklearn.gaussian_process.kernels import RBF
 from sklearn.metrics import r2_score
 
 from skmba import MultiResponseGP
+from skmba._gp_search import correlation
+from skmba._likelihood import NoiseFreeLikelihood
+from skmba._threads import blas_threads, describe_threads
 from skmba.kernels import Gauss
 
 
@@ -49,7 +70,42 @@ def timed(fn):
     return time.perf_counter() - start, out
 
 
-def compare_with_sklearn(n, d, q, restarts, seed=0):
+def traced(fn):
+    """``(seconds, peak traced bytes, fn())``."""
+    tracemalloc.start()
+    try:
+        seconds, out = timed(fn)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    return seconds, peak, out
+
+
+class PerResponseGPR:
+    """One sklearn ``GaussianProcessRegressor`` per column of ``Y``."""
+
+    def __init__(self, **params):
+        self.params = params
+
+    def fit(self, X, Y):
+        self.models_ = [GaussianProcessRegressor(**self.params).fit(X, y) for y in Y.T]
+        return self
+
+    def predict(self, X):
+        return np.column_stack([m.predict(X) for m in self.models_])
+
+    @property
+    def log_marginal_likelihood_value_(self):
+        return sum(m.log_marginal_likelihood_value_ for m in self.models_)
+
+
+def compare_with_sklearn(n, d, q, restarts, seed=0, per_response=False):
+    """Fit + predict time of both, and their ratio.
+
+    ``per_response`` fits one sklearn GPR per response (each with its own
+    kernel, as sklearn users would for independent responses) instead of
+    one GPR on the q columns.
+    """
     rng = np.random.default_rng(seed)
     X = rng.uniform(size=(n, d))
     Y = responses(X, q)
@@ -63,8 +119,8 @@ def compare_with_sklearn(n, d, q, restarts, seed=0):
         alpha=1e-8,
         random_state=0,
     )
-    theirs = GaussianProcessRegressor(
-        RBF(length_scale=np.ones(d)),
+    theirs = (PerResponseGPR if per_response else GaussianProcessRegressor)(
+        kernel=RBF(length_scale=np.ones(d)),
         n_restarts_optimizer=restarts,
         normalize_y=True,
         alpha=1e-8,
@@ -74,7 +130,8 @@ def compare_with_sklearn(n, d, q, restarts, seed=0):
     t_theirs, _ = timed(lambda: theirs.fit(X, Y).predict(X_test))
     print(f"fit+predict, N={n}, d={d}, q={q}, restarts={restarts}")
     print(f"  MultiResponseGP (Gauss, full Sigma2): {t_ours:8.2f} s")
-    print(f"  sklearn GPR (RBF, normalize_y):       {t_theirs:8.2f} s")
+    which = "one GPR per response" if per_response else "normalize_y"
+    print(f"  sklearn GPR (RBF, {which}): {t_theirs:8.2f} s")
     print(f"  ratio skmba / sklearn:                {t_ours / t_theirs:8.2f}")
     ll_ours = ours.log_marginal_likelihood_value_
     print(f"  log-likelihood skmba (y units):       {ll_ours:12.1f}")
@@ -106,12 +163,107 @@ def noisy_scaling(n, qs, seed=0):
     return times
 
 
+def gradient_memory(n, d, q, seed=0):
+    """Peak traced memory of one log-likelihood + gradient evaluation.
+
+    "stacked" repeats the previous implementation: the cached (N, N, d)
+    input differences, sklearn-style stacked (N, N, n_theta) gradient and
+    its contraction; "per hyperparameter" is the current one.
+    """
+    rng = np.random.default_rng(seed)
+    X = rng.uniform(size=(n, d))
+    Y = responses(X, q)
+    Y = (Y - Y.mean(axis=0)) / Y.std(axis=0)
+    H = np.ones((n, 1))
+    kernel = Gauss(roughness=np.full(d, 3.0))
+
+    def stacked():
+        differences = np.abs(X[:, np.newaxis, :] - X[np.newaxis, :, :])
+        R, dR = kernel._from_differences(differences, True)
+        R[np.diag_indices(n)] += 1e-8
+        return NoiseFreeLikelihood(R, H, Y, dR).gradient
+
+    def per_hyperparameter():
+        R, dR = correlation(kernel, X, 1e-8, True)
+        return NoiseFreeLikelihood(R, H, Y, dR).gradient
+
+    print(f"one log-likelihood + gradient, N={n}, d={d}, q={q} (Gauss)")
+    results = {}
+    with blas_threads(n):
+        for name, fn in [
+            ("stacked", stacked),
+            ("per hyperparameter", per_hyperparameter),
+        ]:
+            seconds, peak, grad = traced(fn)
+            results[name] = grad
+            print(
+                f"  {name:20s}: peak traced {peak / 2**20:8.1f} MiB "
+                f"({peak / (8 * n * n):5.1f} N x N arrays), {seconds:6.2f} s"
+            )
+    a, b = results.values()
+    worst = np.max(np.abs(a - b) / np.abs(a))
+    print(f"  max relative difference of the gradients: {worst:.1e}")
+    # Any order of the N^2-term sums tr(W dR_k) is exact only to about
+    # eps sum|W dR_k|; with the weight W = B'B - q R^-1 of a nearly singular
+    # R that is far above eps |tr(W dR_k)|. For Gauss, dR_k <= 0, so
+    # sum|W dR_k| is minus the contraction of |W|.
+    with blas_threads(n):
+        R, dR = correlation(kernel, X, 1e-8, True)
+        fit = NoiseFreeLikelihood(R, H, Y)
+        A = linalg.solve_triangular(fit.C, fit.gls.residual, lower=True, trans="T")
+        B = linalg.solve_triangular(fit.sigma2_chol, A.T, lower=True)
+        weight = B.T @ B - q * linalg.cho_solve((fit.C, True), np.eye(n))
+        floor = np.finfo(float).eps * -dR(np.abs(weight)) / np.abs(b)
+    print(f"  rounding floor eps sum|W dR_k| / |grad_k|:  {np.max(floor):.1e}")
+
+
+def large_fit(n, d, q, n_test=10_000, seed=0):
+    """Fit + predict (with std) of MultiResponseGP on n points."""
+    rng = np.random.default_rng(seed)
+    X = rng.uniform(size=(n, d))
+    Y = responses(X, q)
+    X_test = rng.uniform(size=(n_test, d))
+    Y_test = responses(X_test, q)
+    gp = MultiResponseGP(
+        Gauss(roughness=np.ones(d)), normalize_y=True, alpha=1e-8, random_state=0
+    )
+    t_fit, peak_fit, _ = traced(lambda: gp.fit(X, Y))
+    t_pred, peak_pred, (mean, _) = traced(lambda: gp.predict(X_test, return_std=True))
+    print(f"MultiResponseGP fit + predict, N={n}, d={d}, q={q}")
+    mib = peak_fit / 2**20
+    print(f"  fit:                       {t_fit:8.1f} s, peak traced {mib:7.0f} MiB")
+    print(
+        f"  predict {n_test} points (std): {t_pred:8.1f} s, "
+        f"peak traced {peak_pred / 2**20:7.0f} MiB"
+    )
+    print(f"  held-out R^2:              {r2_score(Y_test, mean):.6f}")
+    print(f"  fitted kernel:             {gp.kernel_}")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="small smoke run")
+    parser.add_argument(
+        "--large", action="store_true", help="large emulators (issue 15)"
+    )
     args = parser.parse_args()
     warnings.simplefilter("ignore", ConvergenceWarning)
-    if args.quick:
+    print(describe_threads())
+    if args.large:
+        n_mem, n_fit, ns = (
+            (600, 1200, (200, 400)) if args.quick else (3000, 5000, (500, 1000, 2000))
+        )
+        gradient_memory(n=n_mem, d=4, q=4)
+        large_fit(n=n_fit, d=4, q=4)
+        ratios = {
+            n: compare_with_sklearn(n=n, d=4, q=4, restarts=0, per_response=True)
+            for n in ns
+        }
+        print(
+            "ratio skmba / sklearn (one GPR per response): "
+            + ", ".join(f"N={n}: {r:.2f}" for n, r in ratios.items())
+        )
+    elif args.quick:
         compare_with_sklearn(n=100, d=4, q=3, restarts=0)
         noisy_scaling(n=80, qs=(1, 2, 4))
     else:

@@ -37,7 +37,7 @@ from skmba._gp_search import (
     LikelihoodProblem,
     correlation,
     fit_noise_free,
-    pairwise_differences,
+    subsample_warm_start,
 )
 from skmba._likelihood import NoiseFreeLikelihood, NoisyLikelihood
 from skmba._linalg import check_memory
@@ -56,8 +56,17 @@ from skmba._validation import (
 from skmba.kernels import Gauss, _DACECorrelation, check_correlation
 
 # Mean and standard deviation are predicted in batches of points whose
-# cross-correlations with the training points take at most this many bytes.
+# cross-correlations with the training points (and the few arrays of that
+# size the prediction makes: _PREDICT_ARRAYS in all) take at most this many
+# bytes.
 _PREDICT_BATCH_BYTES = 2**28
+_PREDICT_ARRAYS = 6
+# N x N float arrays alive at once in one likelihood and gradient evaluation
+# with a DACE kernel (R, its Cholesky factor, R^-1 and its triangular
+# copies, the gradient's weight and the kernel's per-dimension temporaries:
+# 8 to 11 measured with tracemalloc at N=600, d=4 for Gauss to Spline),
+# for the memory check of fit; other kernels add their stacked gradient.
+_FIT_ARRAYS = 12
 
 
 def default_kernel(X):
@@ -100,7 +109,10 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
     ``N x N`` Cholesky serves any ``q``; with noise ``Sigma2`` and ``Lambda``
     are estimated jointly through a Kronecker eigendecomposition
     (``O(N^3 + q^3)``). The kernel hyperparameters maximise the likelihood,
-    with analytic gradients and restarts.
+    with analytic gradients and restarts. Above 2000 samples the search and
+    its restarts run first on 1000 samples drawn with ``random_state``, and
+    the full-size search starts once from that optimum (fewer ``N x N``
+    factorisations).
 
     Read more in the :ref:`User Guide <user-guide-gp>`.
 
@@ -152,7 +164,8 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
         Responses that are constant are predicted exactly (zero variance)
         and take no part in the likelihood.
     random_state : int, RandomState, Generator, SeedSequence or None, default=None
-        Seeds the restarts (and nothing else).
+        Seeds the restarts and the subsample of large fits (and nothing
+        else).
     response_nugget : float, default=0.0
         Added to the diagonal of the estimated ``Sigma2``, as a fraction of the
         mean response variance. Without noise, responses that are exact
@@ -371,10 +384,10 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
                 optimizer=self.optimizer,
                 n_restarts=self.n_restarts_optimizer,
                 random_state=self.random_state,
-                differences=pairwise_differences(kernel, X),
                 on_start=on_start,
             )
             fit_path = fit_noisy if self.noise else fit_noise_free
+            kernel, problem = subsample_warm_start(problem, kernel, fit_path)
             self.kernel_, self.likelihood_ = fit_path(problem, kernel)
             self.nugget_ = problem.nugget
             noise = None
@@ -404,16 +417,35 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
         return X, np.asarray(y, dtype=float).reshape(len(y), -1)
 
     def _check_fit_memory(self, kernel, n, d):
-        """MemoryError before allocating the N x N matrices that do not fit."""
+        """MemoryError before allocating the N x N matrices that do not fit.
+
+        The DACE kernels contract the likelihood gradient one hyperparameter
+        at a time (a fixed number of N x N arrays); other kernels return the
+        stacked (N, N, n_theta) gradient, copied once more when the log noise
+        ratio of a noisy fit is appended.
+        """
         n_hyper = kernel.n_dims + int(self.noise)
-        n_diff = d if isinstance(kernel, _DACECorrelation) else 0
-        check_memory(
-            8.0 * n * n * (n_hyper + 4 + n_diff),
-            f"Fitting MultiResponseGP to {n} samples (the {n} x {n} correlation "
-            f"matrix, its gradient for {n_hyper} hyperparameter(s) and the "
-            "factorisation workspace)",
+        remedy = (
             "Fit on fewer samples (e.g. a space-filling subset of the "
-            "simulations) or use a machine with more memory.",
+            "simulations) or use a machine with more memory."
+        )
+        if isinstance(kernel, _DACECorrelation):
+            n_arrays = _FIT_ARRAYS
+            gradient = "its gradient (one hyperparameter at a time)"
+        else:
+            n_arrays = 2 * n_hyper + _FIT_ARRAYS
+            gradient = f"its stacked gradient for {n_hyper} hyperparameter(s)"
+            remedy = (
+                "Use a kernel of skmba.kernels (e.g. Gauss or Exp, whose "
+                f"gradient needs no {n} x {n} x {n_hyper} array), fit on fewer "
+                "samples (e.g. a space-filling subset of the simulations) or use "
+                "a machine with more memory."
+            )
+        check_memory(
+            8.0 * n * n * n_arrays,
+            f"Fitting MultiResponseGP to {n} samples (the {n} x {n} correlation "
+            f"matrix, {gradient} and the factorisation workspace)",
+            remedy,
         )
 
     def _standardise(self, Y):
@@ -487,8 +519,8 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
                 "for the marginal standard deviations (computed in batches).",
             )
             return self._predict_batch(X, True)
-        n_train, d = self.X_train_.shape
-        batch = max(1, int(_PREDICT_BATCH_BYTES // (8 * n_train * (d + 4))))
+        n_train = len(self.X_train_)
+        batch = max(1, int(_PREDICT_BATCH_BYTES // (8 * n_train * _PREDICT_ARRAYS)))
         if s <= batch:
             mean, var = self._predict_batch(X, False)
         else:

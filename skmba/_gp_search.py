@@ -7,7 +7,9 @@ a log noise-to-signal ratio ``tau``, with L-BFGS-B (or the user's optimizer)
 from the kernel's values and random restarts. While the correlation matrix
 is numerically singular the nugget is escalated: multiplied by 10 (from
 1e-12 when it is 0), never beyond 1e-6, with one warning (see "Nugget
-escalation" in the User Guide).
+escalation" in the User Guide). Above ``WARM_START_ABOVE`` samples the search
+and its restarts run on a random subsample first, and the full-size search
+refines that optimum from one start (:func:`subsample_warm_start`).
 
 Warnings point at the caller of ``MultiResponseGP.fit``: their
 ``stacklevel`` counts the fixed call chain ``fit -> _fit -> fit_noise_free``
@@ -26,14 +28,19 @@ Examples
 """
 
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import NamedTuple
 
 import numpy as np
 from scipy import optimize
 from sklearn.exceptions import ConvergenceWarning
 
-from skmba._likelihood import R_REMEDY, R_WHAT, NoiseFreeLikelihood
+from skmba._likelihood import (
+    R_REMEDY,
+    R_WHAT,
+    GradientContraction,
+    NoiseFreeLikelihood,
+)
 from skmba._linalg import FactorizationError, smallest_pivot
 from skmba._validation import random_state_instance
 from skmba.kernels import _DACECorrelation
@@ -58,6 +65,13 @@ _PIVOT_MARGIN = 100.0
 _FLAT_GRADIENT = 1e-4
 
 
+#: Fits on more than WARM_START_ABOVE samples start from the hyperparameters
+#: fitted (with the restarts) on WARM_START_SAMPLES of them, drawn at random
+#: (:func:`subsample_warm_start`).
+WARM_START_ABOVE = 2000
+WARM_START_SAMPLES = 1000
+
+
 #: Random restarts of the kernel hyperparameters are drawn log-uniformly
 #: within this many log units of the starting values (a factor 100 either
 #: way), and within the bounds: across the whole of wide bounds (eight
@@ -66,29 +80,29 @@ _FLAT_GRADIENT = 1e-4
 RESTART_SPAN = np.log(100.0)
 
 
-def correlation(kernel, X, nugget, eval_gradient, differences=None):
+def correlation(kernel, X, nugget, eval_gradient):
     """Correlation of the training inputs ``X`` (+ ``nugget``) and its gradient.
 
-    ``differences``, the per-dimension ``|x_i - x_j|`` of ``X``
-    (:func:`pairwise_differences`), lets the DACE kernels skip recomputing
-    them at every likelihood evaluation.
+    For the DACE kernels the gradient is a
+    :class:`~skmba._likelihood.GradientContraction`, computed one
+    hyperparameter at a time when the likelihood contracts it, so that no
+    (N, N, n_theta) array is allocated; other kernels give sklearn's
+    stacked gradient.
     """
-    if differences is not None and isinstance(kernel, _DACECorrelation):
-        out = kernel._from_differences(differences, eval_gradient)
-        R, dR = out if eval_gradient else (out, None)
+    if isinstance(kernel, _DACECorrelation):
+        R = kernel._correlation(X, X)
+        dR = None
+        if eval_gradient:
+            dR = GradientContraction(
+                lambda weight: kernel._weighted_log_gradient(X, R, weight),
+                kernel.n_dims,
+            )
     elif eval_gradient:
         R, dR = kernel(X, eval_gradient=True)
     else:
         R, dR = kernel(X), None
     R[np.diag_indices(len(X))] += nugget
     return R, dR
-
-
-def pairwise_differences(kernel, X):
-    """Per-dimension ``|x_i - x_j|`` for DACE kernels, else None."""
-    if not isinstance(kernel, _DACECorrelation):
-        return None
-    return np.abs(X[:, np.newaxis, :] - X[np.newaxis, :, :])
 
 
 @dataclass
@@ -114,7 +128,6 @@ class LikelihoodProblem:
     optimizer: object = "fmin_l_bfgs_b"
     n_restarts: int = 0
     random_state: object = None
-    differences: np.ndarray | None = None
     on_start: object = None
 
     def __post_init__(self):
@@ -123,7 +136,7 @@ class LikelihoodProblem:
 
     def correlation(self, kernel, eval_gradient):
         """Training correlation with the nugget in use, and its gradient."""
-        return correlation(kernel, self.X, self.nugget, eval_gradient, self.differences)
+        return correlation(kernel, self.X, self.nugget, eval_gradient)
 
 
 class Search(NamedTuple):
@@ -250,7 +263,9 @@ class _Concentrated:
             n = len(problem.X)
             tau = np.exp(params[n_kernel])
             R[np.diag_indices(n)] += tau
-            if eval_gradient:
+            if isinstance(dR, GradientContraction):
+                dR = dR.with_diagonal(tau)
+            elif eval_gradient:
                 dtau = np.zeros((n, n, 1))
                 dtau[np.arange(n), np.arange(n), 0] = tau
                 dR = np.concatenate([dR, dtau], axis=2)
@@ -418,6 +433,41 @@ def fit_concentrated(problem, kernel, with_nugget):
     fitted = kernel.clone_with_theta(x[:n_kernel]) if n_kernel else kernel
     tau = float(np.exp(x[n_kernel])) if with_nugget else 0.0
     return fitted, tau, fit
+
+
+def subsample_warm_start(problem, kernel, fit_path):
+    """Start a large fit from the hyperparameters fitted on a subsample.
+
+    Above ``WARM_START_ABOVE`` samples, the search (with its random
+    restarts) runs first on ``WARM_START_SAMPLES`` samples drawn without
+    replacement with ``problem.random_state``; the full-size search then
+    starts once, from that fit's kernel, so the costly N x N evaluations
+    only refine an optimum. Returns the kernel to start from and the
+    problem to fit: unchanged for smaller problems, a fixed kernel
+    (``optimizer=None``) or a subsample whose fit fails (the full search
+    then runs as usual). The subsample fit's warnings are dropped: the full
+    fit gives its own; ``problem.on_start`` reports the subsample's starts
+    (the restarts), not the single full-size one.
+    """
+    n = len(problem.X)
+    if n <= WARM_START_ABOVE or problem.optimizer is None or kernel.n_dims == 0:
+        return kernel, problem
+    rng = random_state_instance(problem.random_state)
+    rows = np.sort(rng.choice(n, WARM_START_SAMPLES, replace=False))
+    sample = replace(
+        problem,
+        X=problem.X[rows],
+        H=problem.H[rows],
+        Y=problem.Y[rows],
+        random_state=rng,
+    )
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            fitted, _ = fit_path(sample, kernel)
+    except (FactorizationError, np.linalg.LinAlgError):
+        return kernel, problem
+    return fitted, replace(problem, n_restarts=0, on_start=None)
 
 
 def fit_noise_free(problem, kernel):

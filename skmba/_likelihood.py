@@ -57,8 +57,55 @@ R_REMEDY = (
 )
 
 
+class GradientContraction:
+    """The derivatives of ``R`` given through their contractions.
+
+    ``contraction(weight)`` returns ``[sum(weight * dR[:, :, k]) for k]``
+    for a symmetric (N, N) ``weight``, which is all the likelihood
+    gradients need (``tr(W dR_k)``), without the stacked (N, N, n_dims)
+    array: the DACE kernels compute it one hyperparameter at a time
+    (:meth:`skmba.kernels._DACECorrelation._weighted_log_gradient`).
+
+    Parameters
+    ----------
+    contract : callable
+        ``contract(weight) -> ndarray of shape (n_dims,)``.
+    n_dims : int
+        Number of hyperparameters.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> dR = GradientContraction(lambda w: np.array([np.trace(w)]), 1)
+    >>> dR(np.eye(3)), dR.with_diagonal(2.0)(np.eye(3))
+    (array([3.]), array([3., 6.]))
+    """
+
+    def __init__(self, contract, n_dims):
+        self.contract = contract
+        self.n_dims = n_dims
+
+    def __call__(self, weight):
+        return np.asarray(self.contract(weight), dtype=float)
+
+    def with_diagonal(self, scale):
+        """One more derivative, ``scale * I`` (a log nugget), appended last."""
+        return GradientContraction(
+            lambda weight: np.append(self(weight), scale * np.trace(weight)),
+            self.n_dims + 1,
+        )
+
+
+def _n_gradients(dR):
+    """Number of hyperparameters of a stacked ``dR`` or a contraction."""
+    return dR.n_dims if isinstance(dR, GradientContraction) else dR.shape[2]
+
+
 def _weighted_trace_gradient(dR, weight):
-    """``[sum(weight * dR[:, :, k]) for k]`` without a Python loop."""
+    """``[sum(weight * dR[:, :, k]) for k]``: through the contraction, or
+    without a Python loop from a stacked (N, N, n_theta) array."""
+    if isinstance(dR, GradientContraction):
+        return dR(weight)
     n = weight.shape[0]
     return dR.reshape(n * n, -1).T @ weight.ravel()
 
@@ -86,9 +133,10 @@ class NoiseFreeLikelihood:
         Correlation matrix (nugget already added).
     H : ndarray of shape (N, p)
     Y : ndarray of shape (N, q)
-    dR : ndarray of shape (N, N, n_theta), optional
-        Derivatives of ``R`` with respect to the kernel's log-hyperparameters;
-        when given, :attr:`gradient` is computed.
+    dR : ndarray of shape (N, N, n_theta) or GradientContraction, optional
+        Derivatives of ``R`` with respect to the kernel's log-hyperparameters
+        (stacked, or through their contractions); when given,
+        :attr:`gradient` is computed.
     ridge : float, default=0
         Added to the diagonal of ``Sigma2`` (internal units): lets exactly
         linearly dependent responses (whose ``E' R^-1 E`` is singular) be
@@ -211,7 +259,7 @@ class NoisyLikelihood:
         Symmetric positive semi-definite ``Sigma2`` (singular allowed).
     lam : ndarray of shape (q,)
         Noise variances.
-    dR : ndarray of shape (N, N, n_theta), optional
+    dR : ndarray of shape (N, N, n_theta) or GradientContraction, optional
         When given, the gradients below are computed (``n_theta`` may be 0:
         then only those with respect to ``L`` and ``lam``).
     eig : tuple (s, U), optional
@@ -262,8 +310,8 @@ class NoisyLikelihood:
         self.grad_kernel = self.grad_sigma2 = self.grad_lam = None
         if dR is not None:
             A = U @ self.zw @ ke.M.T  # V^-1 vec(E) as (N, q)
-            self.grad_kernel = np.zeros(dR.shape[2])
-            if dR.shape[2]:
+            self.grad_kernel = np.zeros(_n_gradients(dR))
+            if self.grad_kernel.size:
                 c1 = ke.w @ ke.e  # (N,): sum_i e_i w_ji
                 weight = A @ self.sigma2 @ A.T - (U * c1) @ U.T
                 self.grad_kernel = 0.5 * _weighted_trace_gradient(dR, weight)

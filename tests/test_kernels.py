@@ -488,3 +488,61 @@ def test_check_correlation_rejects_non_correlations(kernel):
 def test_check_correlation_type_error(kernel):
     with pytest.raises(TypeError, match="Kernel"):
         check_correlation(kernel, np.zeros((2, 1)))
+
+
+# --- per-dimension evaluation (large likelihoods, issue 15) -----------------
+@pytest.mark.parametrize("cls", FAMILIES, ids=ids)
+@pytest.mark.parametrize(
+    "roughness", [1.3, [0.6, 1.7, 3.1]], ids=["isotropic", "anisotropic"]
+)
+def test_per_dimension_evaluation_equals_the_stacked_one(cls, roughness):
+    rng = np.random.default_rng(11)
+    X = rng.uniform(0.0, 1.5, size=(40, 3))
+    X_new = rng.uniform(0.0, 1.5, size=(25, 3))
+    kernel = make_kernel(cls, roughness)
+    K, grad = kernel(X, eval_gradient=True)
+    # The same operations in the same order: bit for bit.
+    np.testing.assert_array_equal(kernel(X), K)
+    stacked_cross = kernel._from_differences(np.abs(X[:, None, :] - X_new[None]))
+    np.testing.assert_array_equal(kernel(X, X_new), stacked_cross)
+    weight = rng.normal(size=(40, 40))
+    weight += weight.T
+    contracted = np.einsum("ij,ijk->k", weight, grad)
+    got = kernel._weighted_log_gradient(X, K, weight)
+    np.testing.assert_allclose(got, contracted, rtol=1e-12, atol=0)
+    # The diagonal of K (where a nugget goes) is not used.
+    with_nugget = kernel._weighted_log_gradient(X, K + 0.1 * np.eye(40), weight)
+    np.testing.assert_allclose(with_nugget, got, rtol=1e-14, atol=0)
+
+
+@pytest.mark.parametrize("fixed", ["roughness", "power"])
+def test_per_dimension_gradient_skips_fixed_hyperparameters(fixed):
+    rng = np.random.default_rng(12)
+    X = rng.uniform(size=(20, 2))
+    kernel = GeneralizedExp(
+        roughness=[1.0, 2.0], power=1.5, **{f"{fixed}_bounds": "fixed"}
+    )
+    K, grad = kernel(X, eval_gradient=True)
+    weight = rng.normal(size=(20, 20))
+    got = kernel._weighted_log_gradient(X, K, weight + weight.T)
+    want = np.einsum("ij,ijk->k", weight + weight.T, grad)
+    assert got.shape == (kernel.n_dims,)
+    np.testing.assert_allclose(got, want, rtol=1e-12, atol=0)
+
+
+def test_leave_one_out_product_is_recomputed_where_a_factor_is_zero():
+    # K / R_j cannot give prod_{k != j} R_k where R_j is 0; the entries where
+    # the derivative does not vanish (a rounding zero near the edge of the
+    # support) are recomputed from the other factors.
+    rng = np.random.default_rng(13)
+    X = rng.uniform(0.0, 0.5, size=(6, 3))
+    kernel = Spherical(roughness=[1.0, 1.5, 0.7])
+    roughness = np.array(kernel.roughness)
+    K = kernel(X)
+    zeta = np.abs(X[:, 1, None] - X[None, :, 1]) * roughness[1]
+    R_1 = Spherical._profile(zeta)
+    R_1[2, 4] = R_1[4, 2] = 0.0  # as if rounded to zero
+    dprofile = Spherical._profile_derivative(zeta)
+    others = kernel._others(X, 1, roughness, K, R_1, dprofile)
+    want = Spherical(roughness=roughness[[0, 2]])(X[:, [0, 2]])
+    np.testing.assert_allclose(others, want, rtol=1e-14, atol=0)
