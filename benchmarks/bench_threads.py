@@ -175,7 +175,7 @@ def main(argv=None):
         noisy_section(200, 4)
     else:
         crossover(sorted({50, 100, 200, 400, 600, 1000, SMALL_ORDER, 2000, 4000}))
-        gp_section([300, 1000, 2000, 4000], [1000, 4000])
+        gp_section([300, 1000, 2000, 3000, 4000], [1000, 4000])
         noisy_section(400, 16)
 
 

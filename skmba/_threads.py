@@ -38,15 +38,16 @@ from threadpoolctl import threadpool_info, threadpool_limits
 from skmba._linalg import n_workers
 
 #: Matrices of lower order than this are handled on one BLAS thread.
-#: Measured on two cores (``benchmarks/bench_threads.py``): a Cholesky
-#: factorisation, a triangular solve with 8 right-hand sides and their
-#: product gain 1.3x from a second thread at order 1000 and 1.5x from 2000
-#: on, and lose up to 3x below 600; one MultiResponseGP log-likelihood with
-#: its gradient (where elementwise work weighs as much as the factorisation)
-#: loses 17 % at N = 1000, breaks even at 2000 and gains 1.5x at 4000; a
-#: noisy fit at N = 400 with every thread on is 10x slower (numpy's and
-#: scipy's OpenBLAS pools spin against each other).
-SMALL_ORDER = 2000
+#: Measured on two cores (``benchmarks/bench_threads.py``, repeated runs):
+#: a Cholesky factorisation, a triangular solve with 8 right-hand sides and
+#: their product gain 1.5x from a second thread at order 1000-4000 and
+#: anything from 0.4x to 2.9x at 200-600 (OpenBLAS's threading jumps
+#: between runs there); one MultiResponseGP log-likelihood with its
+#: gradient, where elementwise work weighs as much as the factorisation,
+#: loses 2-17 % at N = 1000-2000 and gains 1.2x at 3000, 1.3-1.7x at 4000;
+#: a noisy fit at N = 400 with every thread on is 10-12x slower (numpy's
+#: and scipy's OpenBLAS pools spin against each other).
+SMALL_ORDER = 2500
 
 
 def _blas_threads_now():
