@@ -120,6 +120,63 @@ def cholesky(A, *, what="matrix", remedy=None):
         raise FactorizationError(message, what=what) from exc
 
 
+def stacked_whitening(S, Z, eigenvalue_floor):
+    """Cholesky factors of a stack ``S_k`` and the whitened ``L_k^-1 Z_k``.
+
+    One batched Cholesky factorisation of the bordered matrices
+    ``[[S_k, Z_k], [Z_k', c_k I]]`` gives both ``L_k`` (its leading block)
+    and ``(L_k^-1 Z_k)'`` (its lower-left block), which would otherwise take
+    one triangular solve per matrix (numpy has no batched one) or a general
+    solve. ``c_k`` exceeds ``||Z_k||_F^2 / lambda_min(S_k)``, so the
+    bordered matrices are positive definite whenever the ``S_k`` are; it
+    does not enter the blocks returned.
+
+    Parameters
+    ----------
+    S : ndarray of shape (k, m, m)
+        Symmetric positive definite matrices.
+    Z : ndarray of shape (m, c) or (k, m, c)
+        Right-hand sides (one for all, or one per matrix).
+    eigenvalue_floor : float
+        A lower bound of every ``lambda_min(S_k)`` (e.g. the smallest noise
+        variance, when the other terms are positive semi-definite).
+
+    Returns
+    -------
+    L : ndarray of shape (k, m, m)
+    W : ndarray of shape (k, m, c)
+        ``L_k^-1 Z_k``.
+
+    Raises
+    ------
+    numpy.linalg.LinAlgError
+        When a bordered matrix is not positive definite (an ``S_k`` is not),
+        or ``eigenvalue_floor`` gives no bound (zero or not finite).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> S = np.array([[[4.0, 2.0], [2.0, 2.0]]])
+    >>> L, W = stacked_whitening(S, np.array([[2.0], [1.0]]), 1.0)
+    >>> L[0].tolist(), W[0].ravel().tolist()
+    ([[2.0, 0.0], [1.0, 1.0]], [1.0, 0.0])
+    """
+    k, m = S.shape[:2]
+    Z = np.broadcast_to(Z, (k, *Z.shape[-2:]))
+    c = Z.shape[2]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        border = 2.0 * np.sum(Z**2, axis=(1, 2)) / eigenvalue_floor + 1.0
+    if not (eigenvalue_floor > 0 and np.all(np.isfinite(border))):
+        raise np.linalg.LinAlgError("no bound on the bordered matrix")
+    bordered = np.zeros((k, m + c, m + c))
+    bordered[:, :m, :m] = S
+    bordered[:, :m, m:] = Z
+    bordered[:, m:, :m] = np.swapaxes(Z, 1, 2)
+    bordered[:, m:, m:] = border[:, None, None] * np.eye(c)
+    factor = np.linalg.cholesky(bordered)
+    return factor[:, :m, :m], np.swapaxes(factor[:, m:, :m], 1, 2)
+
+
 def log_det_from_cholesky(C):
     """``log |C C'|`` from a Cholesky factor ``C``.
 

@@ -19,7 +19,7 @@ import copy
 import numpy as np
 from scipy import special
 
-from skmba._linalg import LOG_2PI, FactorizationError
+from skmba._linalg import LOG_2PI, FactorizationError, stacked_whitening
 
 #: A module-2 draw whose weight ``p(phi_k | theta, data)`` stays below this
 #: around the posterior of theta is left out of the sampler's mixture
@@ -70,36 +70,26 @@ class ModelMixture:
     def _stacked(self, conditional):
         """The log likelihood of every draw, factored as a stack.
 
-        One stacked Cholesky factorisation of the bordered matrices
-        ``[[S_k, Z], [Z', c I]]`` (``Z`` the field rows of the regression
-        and data) gives both ``L_k`` and ``Z' L_k^-T``, the whitened field
-        rows, whose triangular solves would otherwise be one call per draw.
-        ``c`` exceeds ``||Z||_F^2 / min_k lambda_min(S_k)`` (the smallest
-        eigenvalue is at least the smallest noise variance: the other terms
-        are positive semi-definite), so the bordered matrices are positive
-        definite whenever the ``S_k`` are; ``c`` does not enter the factors
-        that are used.
+        One stacked Cholesky factorisation
+        (:func:`~skmba._linalg.stacked_whitening`) gives both ``L_k`` and
+        the whitened field rows ``L_k^-1 Z`` (``Z`` the field rows of the
+        regression and data); the smallest eigenvalue of every ``S_k`` is at
+        least the smallest noise variance (the other terms are positive
+        semi-definite).
         """
         base = self.base
         cond, model_term = conditional
         X_bot, y_bot = base.field_data(cond)
         Z = np.column_stack([X_bot, y_bot])
-        m, P = Z.shape[0], base.P
+        P = base.P
         if self._S_fixed is None:
             self._S_fixed = np.stack([mdl.S_fixed for mdl in self.models])
             self._noise_floor = min(float(np.min(mdl.noise)) for mdl in self.models)
         K = len(self._S_fixed)
-        border = 2.0 * float(np.sum(Z**2)) / self._noise_floor + 1.0
-        if not np.isfinite(border):  # a zero noise variance: no bound
-            raise FactorizationError("no bound on the bordered matrix")
-        bordered = np.empty((K, m + P + 1, m + P + 1))
-        bordered[:, :m, :m] = self._S_fixed + model_term
-        bordered[:, :m, m:] = Z
-        bordered[:, m:, :m] = Z.T
-        bordered[:, m:, m:] = border * np.eye(P + 1)
-        factor = np.linalg.cholesky(bordered)
-        L = factor[:, :m, :m]
-        W = np.swapaxes(factor[:, m:, :m], 1, 2)
+        try:
+            L, W = stacked_whitening(self._S_fixed + model_term, Z, self._noise_floor)
+        except np.linalg.LinAlgError as exc:
+            raise FactorizationError(str(exc)) from exc
         # R factor of [[G_top, b_top], [W_X, w_y]]: its leading P x P block
         # is that of the whitened regression, its last diagonal entry the
         # norm of the residual beyond the simulations' own (rss_top_perp).

@@ -26,6 +26,7 @@ from skmba._linalg import (
     FactorizationError,
     cholesky,
     log_det_from_cholesky,
+    stacked_whitening,
 )
 from skmba._posterior import RANK_DEFICIENT
 
@@ -142,6 +143,9 @@ class SubsetLikelihood:
         self.X_d = np.kron(np.eye(s), H_d)  # (n s, p_d s)
         self.Y_e = Y_e[:, idx]
         self.M = (design.N + n) * s
+        # The model term of S(theta) is positive semi-definite: the noise
+        # bounds its smallest eigenvalue from below.
+        self.noise_floor = float(np.min(np.asarray(noise)[idx]))
 
     def log_likelihood(self, pieces):
         """Log-likelihood at the ``k`` parameter values of ``pieces``.
@@ -171,25 +175,29 @@ class SubsetLikelihood:
         y = (self.Y_e - Mk[:, :, idx]).transpose(0, 2, 1).reshape(k, n * s)
         out = np.full(k, -np.inf)
         ok = np.ones(k, dtype=bool)
+        Z = np.concatenate([X, y[:, :, None]], axis=2)
         try:
-            L = np.linalg.cholesky(S)
+            L, W = stacked_whitening(S, Z, self.noise_floor)
         except np.linalg.LinAlgError:
-            L = np.zeros_like(S)
+            # One by one: the nodes where S(theta) is not positive definite
+            # are left out (-inf).
+            L, W = np.zeros_like(S), np.zeros_like(Z)
             for j in range(k):
                 try:
                     L[j] = np.linalg.cholesky(S[j])
                 except np.linalg.LinAlgError:
                     ok[j] = False
+                    continue
+                W[j] = linalg.solve_triangular(L[j], Z[j], lower=True)
         if not ok.any():
             return out
-        L, S, X, y = L[ok], S[ok], X[ok], y[ok]
-        rhs = np.concatenate([X, y[:, :, None]], axis=2)
-        solved = np.linalg.solve(S, rhs)  # S^-1 [X | y]
-        XtSX = np.einsum("kip,kiq->kpq", X, solved[:, :, :-1])
-        XtSy = np.einsum("kip,ki->kp", X, solved[:, :, -1])
-        ySy = np.einsum("ki,ki->k", y, solved[:, :, -1])
-        info = self.GtG + XtSX
-        c = self.Gtb + XtSy
+        L, W = L[ok], W[ok]
+        # [X | y]' S^-1 [X | y] from the whitened rows, in one product.
+        gram = np.swapaxes(W, 1, 2) @ W
+        P = self.P
+        info = self.GtG + gram[:, :P, :P]
+        c = self.Gtb + gram[:, :P, P]
+        ySy = gram[:, P, P]
         try:
             L_info = np.linalg.cholesky(info)
         except np.linalg.LinAlgError:

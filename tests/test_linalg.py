@@ -4,6 +4,7 @@ import pickle
 
 import numpy as np
 import pytest
+from scipy import linalg
 
 from skmba import _linalg
 from skmba._linalg import (
@@ -11,6 +12,7 @@ from skmba._linalg import (
     check_memory,
     cholesky,
     smallest_pivot,
+    stacked_whitening,
 )
 
 GIB = 2**30
@@ -117,3 +119,33 @@ def test_smallest_pivot_tracks_the_nugget_of_a_singular_correlation():
     A = np.array([[2.0, 0.5], [0.5, 1.0]])
     assert np.linalg.eigvalsh(A)[0] <= smallest_pivot(cholesky(A)) <= 1.0
     assert smallest_pivot(np.zeros((0, 0))) == 1.0
+
+
+@pytest.mark.parametrize("shared", [True, False])
+def test_stacked_whitening_equals_one_triangular_solve_per_matrix(shared):
+    rng = np.random.default_rng(0)
+    k, m, c = 5, 30, 4
+    A = rng.normal(size=(k, m, m))
+    floor = 0.1
+    S = A @ np.swapaxes(A, 1, 2) + floor * np.eye(m)
+    Z = rng.normal(size=(m, c)) if shared else rng.normal(size=(k, m, c))
+    L, W = stacked_whitening(S, Z, floor)
+    for j in range(k):
+        L_j = np.linalg.cholesky(S[j])
+        np.testing.assert_allclose(L[j], L_j, rtol=1e-12, atol=1e-12)
+        Z_j = Z if shared else Z[j]
+        expected = linalg.solve_triangular(L_j, Z_j, lower=True)
+        np.testing.assert_allclose(W[j], expected, rtol=1e-10, atol=1e-12)
+
+
+@pytest.mark.parametrize("floor", [0.0, np.nan])
+def test_stacked_whitening_needs_an_eigenvalue_bound(floor):
+    S = np.eye(3)[None]
+    with pytest.raises(np.linalg.LinAlgError, match="no bound"):
+        stacked_whitening(S, np.ones((3, 1)), floor)
+
+
+def test_stacked_whitening_of_a_matrix_not_positive_definite_raises():
+    S = np.diag([1.0, -1.0])[None]
+    with pytest.raises(np.linalg.LinAlgError):
+        stacked_whitening(S, np.ones((2, 1)), 1.0)
