@@ -32,6 +32,7 @@ from skmba._columns import column_names, match_columns
 from skmba._discrepancy import DISCREPANCY_OPTIMIZERS
 from skmba._field_data import (
     check_field_data,
+    field_order,
     measured_field_data,
     warn_few_distinct_inputs,
 )
@@ -84,15 +85,6 @@ from skmba._validation import (
 )
 
 _KERNEL = InstanceOf(Kernel, what="an sklearn Kernel", allow_none=True)
-
-
-def _field_order(y):
-    """``n q``, the order of the field block, from ``y`` before its checks
-    (0 when it is not array-like: the checks then say why)."""
-    try:
-        return int(np.asarray(y, dtype=float).size)
-    except (TypeError, ValueError):
-        return 0
 
 
 class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
@@ -451,7 +443,7 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         # joblib tasks their share of the cores.
         partial = {}
         try:
-            with blas_threads(_field_order(y)):
+            with blas_threads(field_order(y)):
                 fitted = self._fit(X, y, X_sim, theta_sim, y_sim, partial)
         except Exception as exc:
             sims = partial.get("simulations")

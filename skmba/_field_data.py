@@ -123,3 +123,21 @@ def warn_few_distinct_inputs(X, discrepancy_regression):
             UserWarning,
             stacklevel=4,
         )
+
+
+def field_order(y):
+    """``n q``, the order of the field block, from ``y`` before its checks.
+
+    0 when ``y`` is not array-like (the checks of ``fit`` then say why).
+
+    Examples
+    --------
+    >>> field_order([[1.0, 2.0], [3.0, float("nan")]]), field_order(None)
+    (4, 0)
+    """
+    if y is None:
+        return 0
+    try:
+        return int(np.asarray(y, dtype=float).size)
+    except (TypeError, ValueError):
+        return 0
