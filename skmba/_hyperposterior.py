@@ -378,5 +378,4 @@ def fit_hyperposterior(
         sigma2 = L @ L.T
         components.append(DiscrepancyComponent(kern, sigma2, lam, regression))
     noise_mean, noise_ess = _noise_posterior_mean(coords, best.x, cov, noise_seed)
-    fit.evaluate(mode_p, eval_gradient=False)  # leave fit.last at the mode
     return HyperposteriorDraws(fit, components, log_w, cov, noise_mean, noise_ess)

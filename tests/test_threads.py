@@ -1,5 +1,6 @@
 """The BLAS thread policy (skmba._threads)."""
 
+import os
 from contextlib import contextmanager
 
 import numpy as np
@@ -41,9 +42,7 @@ def test_large_work_in_the_calling_process_uses_the_process_threads():
 @pytest.mark.parametrize("n_jobs", [1, 2, 4, -1])
 def test_a_task_gets_its_share_of_the_cores(n_jobs, monkeypatch):
     monkeypatch.setattr("skmba._threads.cpu_count", lambda: 8)
-    monkeypatch.setattr(
-        "skmba._threads._PROCESS_THREADS", (__import__("os").getpid(), 8)
-    )
+    monkeypatch.setattr("skmba._threads._PROCESS_THREADS", (os.getpid(), 8))
     monkeypatch.setattr("skmba._threads.n_workers", lambda n: 8 if n == -1 else n)
     expected = {1: 8, 2: 4, 4: 2, -1: 1}[n_jobs]
     assert thread_budget(n_jobs) == expected
@@ -54,9 +53,7 @@ def test_a_task_never_gets_more_than_the_process_started_with(monkeypatch):
     # In a loky worker (or under OMP_NUM_THREADS=1) the process's own
     # budget is the ceiling, whatever the machine has.
     monkeypatch.setattr("skmba._threads.cpu_count", lambda: 16)
-    monkeypatch.setattr(
-        "skmba._threads._PROCESS_THREADS", (__import__("os").getpid(), 1)
-    )
+    monkeypatch.setattr("skmba._threads._PROCESS_THREADS", (os.getpid(), 1))
     assert thread_budget(None) == 1
 
 
