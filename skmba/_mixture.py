@@ -19,7 +19,8 @@ import copy
 import numpy as np
 from scipy import special
 
-from skmba._linalg import LOG_2PI, FactorizationError, stacked_whitening
+from skmba._linalg import FactorizationError
+from skmba._schur import stack_chunks
 
 #: A module-2 draw whose weight ``p(phi_k | theta, data)`` stays below this
 #: around the posterior of theta is left out of the sampler's mixture
@@ -57,75 +58,64 @@ class ModelMixture:
     def component_log_likelihoods(self, theta):
         """``log w_k + log p(data | theta, phi_k)`` for every draw ``k``.
 
-        All draws at once (stacked Cholesky, triangular solves and QR); one
-        by one when a draw's covariance cannot be factored.
+        Raises
+        ------
+        FactorizationError
+            When no draw can be evaluated at ``theta`` (saying why).
         """
         theta = np.asarray(theta, dtype=float).ravel()
-        conditional = self.base.conditional(theta)
-        try:
-            return self.log_weights + self._stacked(conditional)
-        except (np.linalg.LinAlgError, FactorizationError):
-            return self._one_by_one(theta, conditional)
+        values = self.batch_component_log_likelihoods(theta[None, :])[0]
+        if not np.any(np.isfinite(values)):
+            self.base.log_likelihood(theta)  # raises, saying why
+            raise FactorizationError(
+                "The Schur complement S(theta) is not positive definite at any "
+                "module-2 draw."
+            )
+        return values
 
-    def _stacked(self, conditional):
-        """The log likelihood of every draw, factored as a stack.
+    def batch_component_log_likelihoods(self, thetas):
+        """``log w_k + log p(data | theta_b, phi_k)`` (B, K) at the rows of
+        ``thetas`` (B, r): ``-inf`` where draw ``k``'s Schur complement is
+        not positive definite.
 
-        One stacked Cholesky factorisation
-        (:func:`~skmba._linalg.stacked_whitening`) gives both ``L_k`` and
-        the whitened field rows ``L_k^-1 Z`` (``Z`` the field rows of the
-        regression and data); the smallest eigenvalue of every ``S_k`` is at
-        least the smallest noise variance (the other terms are positive
-        semi-definite).
+        The emulator given the simulations is computed once per theta for
+        all draws, and the Schur complements of every theta and draw are
+        factored as one stack
+        (:func:`~skmba._schur.schur_log_likelihoods`).
+
+        Raises
+        ------
+        FactorizationError
+            When the regression is rank deficient at one of ``thetas``.
         """
         base = self.base
-        cond, model_term = conditional
-        X_bot, y_bot = base.field_data(cond)
-        Z = np.column_stack([X_bot, y_bot])
-        P = base.P
         if self._S_fixed is None:
             self._S_fixed = np.stack([mdl.S_fixed for mdl in self.models])
-            self._noise_floor = min(float(np.min(mdl.noise)) for mdl in self.models)
-        K = len(self._S_fixed)
-        try:
-            L, W = stacked_whitening(self._S_fixed + model_term, Z, self._noise_floor)
-        except np.linalg.LinAlgError as exc:
-            raise FactorizationError(str(exc)) from exc
-        # R factor of [[G_top, b_top], [W_X, w_y]]: its leading P x P block
-        # is that of the whitened regression, its last diagonal entry the
-        # norm of the residual beyond the simulations' own (rss_top_perp).
-        top = np.column_stack([base.G_top, base.b_top])
-        stacked = np.concatenate([np.broadcast_to(top, (K, *top.shape)), W], axis=1)
-        R = np.linalg.qr(stacked, mode="r")
-        diag = np.abs(np.diagonal(R[:, :P, :P], axis1=1, axis2=2))
-        if np.any(diag.min(axis=1) <= 1e-10 * diag.max(axis=1)):
-            raise FactorizationError("rank deficient")
-        rss = base.rss_top_perp + R[:, P, P] ** 2
-        log_det_S = 2.0 * np.sum(np.log(np.diagonal(L, axis1=1, axis2=2)), axis=1)
-        M = base.N * self.q + base.n_observed
-        return -0.5 * (
-            (M - P) * LOG_2PI
-            + base.log_det_A
-            + log_det_S
-            + 2.0 * np.sum(np.log(diag), axis=1)
-            + rss
-        )
-
-    def _one_by_one(self, theta, conditional):
-        out = np.full(len(self.models), -np.inf)
-        for k, model in enumerate(self.models):
-            try:
-                out[k] = model.whiten(theta, conditional).log_likelihood
-            except FactorizationError:
-                continue
-        if not np.any(np.isfinite(out)):
-            # Say why, with the mode's own error.
-            self.base.whiten(theta, conditional)
+            self._noise_floor = min(mdl.noise_floor for mdl in self.models)
+        K, m = self._S_fixed.shape[:2]
+        out = np.empty((len(thetas), K))
+        for chunk in stack_chunks(len(thetas), K, m, base.P + 1):
+            cond, terms = base.conditionals(thetas[chunk])
+            Z = base.field_rows(cond)
+            B = len(terms)
+            S = (self._S_fixed[None] + terms[:, None]).reshape(B * K, m, m)
+            Z = np.broadcast_to(Z[:, None], (B, K, *Z.shape[1:])).reshape(
+                B * K, *Z.shape[1:]
+            )
+            values = base.stacked_log_likelihoods(S, Z, self._noise_floor)
+            out[chunk] = values.reshape(B, K)
         return self.log_weights + out
 
     def log_likelihood(self, theta):
         """``log sum_k w_k p(data | theta, phi_k)``."""
         # numpy's reduction: scipy's logsumexp costs more than the sum here.
         return float(np.logaddexp.reduce(self.component_log_likelihoods(theta)))
+
+    def log_likelihoods(self, thetas):
+        """:meth:`log_likelihood` at the rows of ``thetas`` (B, r): (B,),
+        ``-inf`` where no draw can be evaluated."""
+        values = self.batch_component_log_likelihoods(thetas)
+        return np.logaddexp.reduce(values, axis=1)
 
     def draw_weights(self, theta):
         """``p(phi_k | theta, data)`` over the draws (sums to one)."""

@@ -52,17 +52,21 @@ from scipy import linalg, optimize
 
 from skmba._diagnostics import check_diagnostics
 from skmba._linalg import (
-    LOG_2PI,
     FactorizationError,
     cholesky,
     log_det_from_cholesky,
     observed_block,
     observed_entries,
-    observed_rows,
 )
 from skmba._progress import as_progress
 from skmba._regression import regression_basis
 from skmba._sampling import run_chains
+from skmba._schur import (
+    RANK_DEFICIENT,
+    RANK_TOLERANCE,
+    schur_log_likelihoods,
+    stack_chunks,
+)
 from skmba._validation import seed_sequence
 
 _S_REMEDY = (
@@ -70,11 +74,6 @@ _S_REMEDY = (
     "not positive definite for this theta. Use a smoother model kernel, a "
     "larger nugget `alpha` for the emulator, or check that the noise variances "
     "are not all at their lower bound."
-)
-#: The error when the stacked regression of the global model is singular.
-RANK_DEFICIENT = (
-    "The global regression matrix H_Y(theta) is rank deficient: use "
-    "lower-order regressions for the model or the discrepancy."
 )
 SAMPLERS = ("auto", "quadrature", "mcmc")
 # One-parameter posterior quadrature: nodes per pass, most passes, and the
@@ -98,7 +97,6 @@ class Whitened:
     resid_top: np.ndarray  # whitened residual, simulation block, (Nq,)
     resid_bot: np.ndarray  # whitened residual, field block, (m,)
     X_bot: np.ndarray  # L_S^-1 times the field rows of H_Y, (m, P)
-    log_likelihood: float
 
 
 class GlobalModel:
@@ -161,6 +159,7 @@ class GlobalModel:
         Q_t, G_t = linalg.qr(X_top, mode="economic")
         self.G_top = np.hstack([G_t, np.zeros((G_t.shape[0], self.p_d * q))])
         self.b_top = Q_t.T @ y_top
+        self.top = np.column_stack([self.G_top, self.b_top])
         self.X_top_full = np.hstack([X_top, np.zeros((N * q, self.p_d * q))])
         self.y_top = y_top
         self.rss_top_perp = float(y_top @ y_top - self.b_top @ self.b_top)
@@ -181,6 +180,9 @@ class GlobalModel:
             + np.kron(np.diag(self.noise), np.eye(self.n)),
             self.observed,
         )
+        # The other terms of S(theta) are positive semi-definite: the
+        # smallest noise variance bounds its smallest eigenvalue.
+        self.noise_floor = float(np.min(self.noise))
         self._cache = None
 
     def with_discrepancy(self, discrepancy):
@@ -196,27 +198,63 @@ class GlobalModel:
         """``Z L_sm^-T`` for Z of shape (., q): whitening across responses."""
         return linalg.solve_triangular(self.L_sm, Z.T, lower=True).T
 
-    def conditional(self, theta):
-        """The emulator given the simulations at the field inputs and ``theta``.
+    def conditionals(self, thetas):
+        """The emulator given the simulations at the field inputs, per theta.
 
-        Returns the :class:`~skmba._emulator.EmulatorConditional` and the
-        model term ``Sigma_m ⊗ T`` of the Schur complement, which do not
-        depend on the module-2 hyperparameters.
+        Returns the :class:`~skmba._emulator.EmulatorConditional` at the
+        rows of ``thetas`` (k, r) and the model terms ``Sigma_m ⊗ T`` of
+        their Schur complements (k, m, m), at the measured entries; neither
+        depends on the module-2 hyperparameters.
         """
-        cond = self.emulator.conditional(self.X_e, np.ravel(theta)[None, :])
-        T = cond.correlation(self.nugget, prior=self.R_ee)[0]
-        model_term = np.kron(self.sigma2_m, T)
-        return cond, observed_block(model_term, self.observed)
+        cond = self.emulator.conditional(self.X_e, thetas)
+        T = cond.correlation(self.nugget, prior=self.R_ee)
+        k, n, q = len(T), self.n, self.q
+        terms = np.einsum("ij,kab->kiajb", self.sigma2_m, T).reshape(k, q * n, q * n)
+        if self.observed is not None:
+            terms = terms[:, self.observed[:, None], self.observed]
+        return cond, terms
+
+    def conditional(self, theta):
+        """:meth:`conditionals` at one ``theta``: the conditional and its
+        model term (m, m)."""
+        cond, terms = self.conditionals(np.ravel(theta)[None, :])
+        return cond, terms[0]
 
     def field_data(self, cond):
-        """The field rows of ``H_Y`` and the field data minus the emulator's
-        conditional mean, at the measured entries (unwhitened)."""
-        q = self.q
-        X_bot = np.hstack(
-            [np.kron(np.eye(q), cond.H_me()[0]), np.kron(np.eye(q), self.H_d)]
-        )  # (nq, P)
-        y_bot = (self.Y_e - cond.M()[0]).T.ravel()
-        return observed_rows(X_bot, self.observed), observed_rows(y_bot, self.observed)
+        """The field rows of ``H_Y`` (k, m, P) and the field data minus the
+        emulator's conditional mean (k, m), at the measured entries
+        (unwhitened), per theta of ``cond``."""
+        q, n, k, p_m = self.q, self.n, cond.k, self.p_m
+        X_bot = np.zeros((k, q * n, self.P))
+        H_me = cond.H_me()
+        for j in range(q):
+            rows = slice(j * n, (j + 1) * n)
+            X_bot[:, rows, j * p_m : (j + 1) * p_m] = H_me
+            start = q * p_m + j * self.p_d
+            X_bot[:, rows, start : start + self.p_d] = self.H_d
+        y_bot = (self.Y_e - cond.M()).transpose(0, 2, 1).reshape(k, q * n)
+        if self.observed is None:
+            return X_bot, y_bot
+        return X_bot[:, self.observed], y_bot[:, self.observed]
+
+    def field_rows(self, cond):
+        """``[X_bot, y_bot]`` of :meth:`field_data` side by side (k, m, P + 1)."""
+        X_bot, y_bot = self.field_data(cond)
+        return np.concatenate([X_bot, y_bot[:, :, None]], axis=2)
+
+    def stacked_log_likelihoods(self, S, Z, noise_floor=None):
+        """:func:`~skmba._schur.schur_log_likelihoods` of this model's data
+        for Schur complements ``S`` (k, m, m) and field rows ``Z``, whose
+        smallest noise variance is ``noise_floor`` (None: this model's)."""
+        return schur_log_likelihoods(
+            S,
+            Z,
+            self.noise_floor if noise_floor is None else noise_floor,
+            self.top,
+            self.rss_top_perp,
+            self.log_det_A,
+            self.N * self.q + self.n_observed,
+        )
 
     def whiten(self, theta, conditional=None):
         """Factor the global model at ``theta`` (cached for the last theta).
@@ -229,32 +267,22 @@ class GlobalModel:
         cache = self._cache  # one read: another thread may replace it
         if cache is not None and np.array_equal(cache.theta, theta):
             return cache
-        N, q = self.N, self.q
         cond, model_term = conditional or self.conditional(theta)
         S = self.S_fixed + model_term
         L_S = cholesky(S, what="Schur complement S(theta)", remedy=_S_REMEDY)
         # Field rows of H_Y minus B'A^-1 times the simulation rows, whitened.
         X_bot, y_bot = self.field_data(cond)
-        X_bot = linalg.solve_triangular(L_S, X_bot, lower=True)
-        y_bot = linalg.solve_triangular(L_S, y_bot, lower=True)
+        X_bot = linalg.solve_triangular(L_S, X_bot[0], lower=True)
+        y_bot = linalg.solve_triangular(L_S, y_bot[0], lower=True)
         stacked = np.vstack([self.G_top, X_bot])
         Q, G = linalg.qr(stacked, mode="economic")
         diag = np.abs(np.diag(G))
-        if diag.min() <= 1e-10 * diag.max():
+        if diag.min() <= RANK_TOLERANCE * diag.max():
             raise FactorizationError(RANK_DEFICIENT)
         rhs = np.concatenate([self.b_top, y_bot])
         beta = linalg.solve_triangular(G, Q.T @ rhs)
         resid_bot = y_bot - X_bot @ beta
         resid_top = self.y_top - self.X_top_full @ beta
-        rss = float(resid_top @ resid_top + resid_bot @ resid_bot)
-        M = N * q + self.n_observed
-        log_likelihood = -0.5 * (
-            (M - self.P) * LOG_2PI
-            + self.log_det_A
-            + log_det_from_cholesky(L_S)
-            + 2.0 * np.sum(np.log(diag))
-            + rss
-        )
         whitened = Whitened(
             theta=theta,
             P_e=cond.points,
@@ -265,7 +293,6 @@ class GlobalModel:
             resid_top=resid_top,
             resid_bot=resid_bot,
             X_bot=X_bot,
-            log_likelihood=log_likelihood,
         )
         self._cache = whitened
         return whitened
@@ -277,8 +304,39 @@ class GlobalModel:
         |H_Y' V_Y^-1 H_Y|^-1/2 exp(-rss/2)`` with ``M = N q + m`` data (``m``
         measured field entries, ``n q`` without gaps) and ``P`` regression
         coefficients, so that it equals the dense formula.
+
+        Raises
+        ------
+        FactorizationError
+            When it cannot be evaluated (saying why).
         """
-        return self.whiten(theta).log_likelihood
+        theta = np.ravel(theta)
+        value = self.log_likelihoods(theta[None, :])[0]
+        if value == -np.inf:
+            self.whiten(theta)  # raises, saying why
+            raise FactorizationError(
+                "The Schur complement S(theta) is not positive definite. " + _S_REMEDY
+            )
+        return float(value)
+
+    def log_likelihoods(self, thetas):
+        """:meth:`log_likelihood` at the rows of ``thetas`` (k, r): (k,).
+
+        ``-inf`` where the Schur complement is not positive definite; the
+        Schur complements of several theta are factored as one stack.
+
+        Raises
+        ------
+        FactorizationError
+            When the regression is rank deficient at one of ``thetas``.
+        """
+        out = np.empty(len(thetas))
+        for chunk in stack_chunks(len(thetas), 1, self.n_observed, self.P + 1):
+            cond, terms = self.conditionals(thetas[chunk])
+            out[chunk] = self.stacked_log_likelihoods(
+                self.S_fixed + terms, self.field_rows(cond)
+            )
+        return out
 
 
 class LogPosterior:
@@ -365,6 +423,31 @@ class LogPosterior:
             return -np.inf
         return self(theta, model) + np.sum(np.log(theta[self.log_dims]))
 
+    def log_density_u_batch(self, U):
+        """:meth:`log_density_u` at the rows of ``U`` (m, r): (m,).
+
+        The likelihoods of all the points inside the prior's support are
+        evaluated together (:meth:`GlobalModel.log_likelihoods`).
+        """
+        theta = self.from_u(U)
+        out = np.full(len(theta), -np.inf)
+        log_prior = np.full(len(theta), -np.inf)
+        finite = np.all(np.isfinite(theta), axis=1)
+        if finite.any():
+            log_prior[finite] = np.ravel(self.prior.logpdf(theta[finite]))
+        inside = np.isfinite(log_prior)
+        if not inside.any():
+            return out
+        t = theta[inside]
+        try:
+            values = self.model.log_likelihoods(self.scaler.theta(t))
+        except FactorizationError:  # rank deficient at some theta: one by one
+            values = np.array([self(x) for x in t]) - log_prior[inside]
+        out[inside] = (
+            log_prior[inside] + values + np.sum(np.log(t[:, self.log_dims]), axis=1)
+        )
+        return out
+
     def raise_unevaluable(self, thetas):
         """The posterior is -inf at every node: say why, with the cause."""
         middle = np.array([thetas[len(thetas) // 2]])
@@ -394,6 +477,10 @@ class _ChainTarget:
 
     def __call__(self, u):
         return self.log_posterior.log_density_u(u)
+
+    def batch(self, U):
+        """Log density at the rows of ``U`` (m, r), evaluated together."""
+        return self.log_posterior.log_density_u_batch(U)
 
 
 @dataclass(frozen=True)
@@ -547,6 +634,13 @@ def posterior_by_quadrature(log_posterior, n_samples, random_state=None, say=Non
     return PosteriorResult.from_rule(samples, t[:, None], w, (lo, hi))
 
 
+#: Tolerances of the search for the mode (sampling coordinates, log
+#: density): it only places the chains' starts and the steps of the
+#: Hessian, whose error from a mode off by ``x`` is of order ``x^2``.
+_MODE_XATOL = 1e-5
+_MODE_FATOL = 1e-6
+
+
 def laplace(log_density, starts):
     """Posterior mode and covariance (Laplace) of ``log_density``.
 
@@ -573,7 +667,7 @@ def laplace(log_density, starts):
                 negative,
                 start,
                 method="Nelder-Mead",
-                options={"xatol": 1e-8, "fatol": 1e-10, "maxiter": 4000},
+                options={"xatol": _MODE_XATOL, "fatol": _MODE_FATOL, "maxiter": 4000},
             )
             for start in starts
         ),
@@ -618,7 +712,7 @@ def _chain_starts(log_posterior, n_chains, rng):
     around it with a Laplace proposal.
     """
     candidates = log_posterior.prior.rvs(50 * n_chains, random_state=rng)
-    logp = np.array([log_posterior(c) for c in candidates])
+    logp = log_posterior.log_density_u_batch(log_posterior.to_u(candidates))
     order = np.argsort(logp)[::-1][:n_chains]
     if not np.all(np.isfinite(logp[order])):
         raise FactorizationError(
@@ -637,6 +731,13 @@ def _chain_starts(log_posterior, n_chains, rng):
             starts.append(start)
     return np.array(starts), mode, cov
 
+
+#: Probability of an independence move per MCMC step (:mod:`skmba._sampling`):
+#: the posteriors of theta are mostly unimodal and close to a Student-t in
+#: the sampling coordinates, where independence moves give nearly
+#: independent draws; one step in ten stays a random walk for the tails and
+#: curved ridges.
+INDEPENDENCE = 0.9
 
 #: Kept posterior draws at which :func:`_without_idle_draws` is checked.
 _IDLE_CHECK_DRAWS = 100
@@ -739,7 +840,7 @@ def posterior_by_mcmc(
             burn_in=burn_in,
             proposal_cov=(2.38**2 / r) * cov,
             adapt=True,
-            screen=True,
+            independence=INDEPENDENCE,
             n_jobs=n_jobs,
             blas_order=log_posterior.model.n * log_posterior.model.q,
             random_state=copy.deepcopy(chains_seed),

@@ -7,7 +7,8 @@ the responses or on the field data (:meth:`Emulator.conditional
 <skmba._emulator.Emulator.conditional>`), so :class:`FieldDesignEmulator`
 computes it once per ``theta`` for all subsets, and the simulation block of
 a subset once per subset; :class:`SubsetLikelihood` then factors the Schur
-complement of each ``theta`` in one batched Cholesky.
+complement of each ``theta`` in one batched Cholesky
+(:func:`~skmba._schur.schur_log_likelihoods`).
 
 Examples
 --------
@@ -21,14 +22,8 @@ responses:
 import numpy as np
 from scipy import linalg
 
-from skmba._linalg import (
-    LOG_2PI,
-    FactorizationError,
-    cholesky,
-    log_det_from_cholesky,
-    stacked_whitening,
-)
-from skmba._posterior import RANK_DEFICIENT
+from skmba._linalg import cholesky, log_det_from_cholesky
+from skmba._schur import schur_log_likelihoods
 
 
 class FieldDesignEmulator:
@@ -100,10 +95,9 @@ class SubsetLikelihood:
     The discrepancy and noise of the subset are those of all responses
     restricted to it (``Sigma_d[S, S]``, ``Lambda[S]``), which is what a
     multi-response GP implies for a subset. The Schur complement
-    ``S(theta)`` of each ``theta`` is factored in one batched Cholesky, and
-    the regression coefficients are integrated out through the normal
-    equations of the stacked, whitened regression (small: ``(p_m + p_d) s``
-    columns), which is equivalent to the QR of :class:`GlobalModel`.
+    ``S(theta)`` of each ``theta`` is factored in one batched Cholesky and
+    the regression coefficients are integrated out through one batched QR
+    (:func:`~skmba._schur.schur_log_likelihoods`, as for the calibrator).
 
     Parameters
     ----------
@@ -132,11 +126,10 @@ class SubsetLikelihood:
         self.p_m, self.p_d = design.p_m, H_d.shape[1]
         self.P = (self.p_m + self.p_d) * s
         pm = self.p_m * s
-        self.GtG = np.zeros((self.P, self.P))
-        self.GtG[:pm, :pm] = G.T @ G
-        self.Gtb = np.zeros(self.P)
-        self.Gtb[:pm] = G.T @ b
-        self.bb = float(b @ b)
+        # [G_top, b_top] of the simulation block (no discrepancy columns).
+        self.top = np.zeros((pm, self.P + 1))
+        self.top[:, :pm] = G
+        self.top[:, self.P] = b
         self.S_fixed = np.kron(sigma2_d[np.ix_(idx, idx)], R_d) + np.kron(
             np.diag(np.asarray(noise)[idx]), np.eye(n)
         )
@@ -173,46 +166,7 @@ class SubsetLikelihood:
             X[:, a * n : (a + 1) * n, a * self.p_m : (a + 1) * self.p_m] = H_me
         X[:, :, pm:] = self.X_d
         y = (self.Y_e - Mk[:, :, idx]).transpose(0, 2, 1).reshape(k, n * s)
-        out = np.full(k, -np.inf)
-        ok = np.ones(k, dtype=bool)
         Z = np.concatenate([X, y[:, :, None]], axis=2)
-        try:
-            L, W = stacked_whitening(S, Z, self.noise_floor)
-        except np.linalg.LinAlgError:
-            # One by one: the nodes where S(theta) is not positive definite
-            # are left out (-inf).
-            L, W = np.zeros_like(S), np.zeros_like(Z)
-            for j in range(k):
-                try:
-                    L[j] = np.linalg.cholesky(S[j])
-                except np.linalg.LinAlgError:
-                    ok[j] = False
-                    continue
-                W[j] = linalg.solve_triangular(L[j], Z[j], lower=True)
-        if not ok.any():
-            return out
-        L, W = L[ok], W[ok]
-        # [X | y]' S^-1 [X | y] from the whitened rows, in one product.
-        gram = np.swapaxes(W, 1, 2) @ W
-        P = self.P
-        info = self.GtG + gram[:, :P, :P]
-        c = self.Gtb + gram[:, :P, P]
-        ySy = gram[:, P, P]
-        try:
-            L_info = np.linalg.cholesky(info)
-        except np.linalg.LinAlgError:
-            raise FactorizationError(RANK_DEFICIENT) from None
-        z = np.linalg.solve(L_info, c[:, :, None])[:, :, 0]
-        rss = self.rss_perp + self.bb + ySy - np.einsum("kp,kp->k", z, z)
-        log_det_S = 2.0 * np.sum(np.log(np.diagonal(L, axis1=1, axis2=2)), axis=1)
-        log_det_info = 2.0 * np.sum(
-            np.log(np.diagonal(L_info, axis1=1, axis2=2)), axis=1
+        return schur_log_likelihoods(
+            S, Z, self.noise_floor, self.top, self.rss_perp, self.log_det_A, self.M
         )
-        out[ok] = -0.5 * (
-            (self.M - self.P) * LOG_2PI
-            + self.log_det_A
-            + log_det_S
-            + log_det_info
-            + rss
-        )
-        return out

@@ -24,7 +24,6 @@ import skmba._discrepancy as discrepancy_module
 import skmba._integration as integration_module
 import skmba._linalg as linalg_module
 import skmba._mba as mba_module
-import skmba._mixture as mixture_module
 import skmba._posterior as posterior_module
 import skmba._prediction as prediction_module
 from skmba import ModularBayesCalibrator
@@ -37,12 +36,15 @@ def test_unevaluable_likelihood_names_the_cause(monkeypatch, treatment):
     def fail(self, theta, conditional=None):
         raise posterior_module.FactorizationError("S(theta) is not positive definite.")
 
-    def singular(self, conditional):
-        raise np.linalg.LinAlgError("not positive definite")
+    def singular(self, S, Z, noise_floor=None):
+        return np.full(len(S), -np.inf)  # no Schur complement factors
 
-    # Every draw of the mixture fails too: stacked, then one by one.
+    # Every theta and every draw of the mixture fails; the single model's
+    # factorisation says why.
     monkeypatch.setattr(posterior_module.GlobalModel, "whiten", fail)
-    monkeypatch.setattr(mixture_module.ModelMixture, "_stacked", singular)
+    monkeypatch.setattr(
+        posterior_module.GlobalModel, "stacked_log_likelihoods", singular
+    )
     with pytest.raises(
         posterior_module.FactorizationError,
         match=r"could not be evaluated at any quadrature node \(at theta=.*S\(theta\) "

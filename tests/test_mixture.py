@@ -47,10 +47,42 @@ def test_stacked_equals_each_component(request, theta, data):
     assert mix.log_likelihood(t) == pytest.approx(
         special.logsumexp(draws.log_weights + each), rel=1e-12
     )
-    # The one-by-one path (used when a stacked factorisation fails) agrees.
+    # Several theta in one stack: the values of each theta on its own.
+    thetas = np.array([[-0.7], [0.1], [0.9]])
     np.testing.assert_allclose(
-        mix._one_by_one(t, gm.conditional(t)), draws.log_weights + each, rtol=1e-10
+        mix.batch_component_log_likelihoods(thetas),
+        [mix.component_log_likelihoods(u) for u in thetas],
+        rtol=1e-12,
     )
+    np.testing.assert_allclose(
+        mix.log_likelihoods(thetas),
+        [mix.log_likelihood(u) for u in thetas],
+        rtol=1e-12,
+    )
+
+
+@pytest.mark.parametrize("data", ["problem", "gapped_problem"])
+def test_a_draw_that_cannot_be_factored_weighs_nothing(request, data):
+    # A Schur complement that is not positive definite fails the stacked
+    # factorisation; the draws are then factored one by one and that draw
+    # gets -inf, the others their own values.
+    gm = request.getfixturevalue(data)[1]
+    draws = _draws()
+    mix = ModelMixture(gm, draws)
+    t = np.array([0.1])
+    expected = mix.component_log_likelihoods(t)
+    broken = ModelMixture(gm, draws)
+    broken.models[2].S_fixed = -np.eye(len(broken.models[2].S_fixed))
+    values = broken.component_log_likelihoods(t)
+    assert values[2] == -np.inf
+    keep = np.arange(4) != 2
+    np.testing.assert_allclose(values[keep], expected[keep], rtol=1e-12)
+    # No draw can be factored: the error says why.
+    for model in broken.models:
+        model.S_fixed = -np.eye(len(model.S_fixed))
+    broken._S_fixed = None
+    with pytest.raises(FactorizationError, match="not positive definite"):
+        broken.component_log_likelihoods(t)
 
 
 @pytest.mark.parametrize("data", ["problem", "gapped_problem"])

@@ -101,3 +101,19 @@ def test_chains_leave_out_idle_draws_and_run_again_when_they_matter(
     again = _two_parameter_fit(verbose=1)
     assert "the chains run again over all" in capsys.readouterr().err
     np.testing.assert_array_equal(again.theta_samples_, every.theta_samples_)
+
+
+def test_log_density_of_many_points_equals_one_at_a_time():
+    cal = _two_parameter_fit()
+    lp = cal._log_posterior
+    rng = np.random.default_rng(0)
+    thetas = cal.theta_samples_[rng.choice(len(cal.theta_samples_), 20)]
+    # Some points outside the prior's support, one not even finite.
+    thetas[3] = cal.prior_.bounds(0.999999)[:, 1] * 10.0
+    U = lp.to_u(thetas)
+    U[5] = np.nan
+    batch = lp.log_density_u_batch(U)
+    each = np.array([lp.log_density_u(u) for u in U])
+    assert batch[3] == batch[5] == -np.inf
+    np.testing.assert_allclose(batch, each, rtol=1e-12)
+    assert np.isfinite(batch).sum() == 18
