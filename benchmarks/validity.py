@@ -35,7 +35,9 @@ category. A second table gives the mean z, the median and the largest
 posterior sd, in how many replicates the posterior sd exceeds 0.9 times the
 prior's ("sd ~ prior": the data taught nothing about theta), the median
 ratio of the fitted to the true noise variance,
-``identifiability_`` when the calibrator has one, and the mean fit time.
+``identifiability_`` when the calibrator has one, how often
+``theta_robust_interval_`` covers theta* with its median width relative to
+the posterior interval's, and the mean fit time.
 
 Usage::
 
@@ -164,6 +166,9 @@ def _fit_and_score(spec, seed, n_test, n_rank):
     mean, std = cal.predict(X_test, return_std=True)
     cover_obs = np.mean(np.abs(y_new - mean) <= Z_LEVEL * std)
     identifiability = getattr(cal, "identifiability_", None)
+    robust = getattr(cal, "theta_robust_interval_", None)
+    if robust is None:
+        robust = np.full((len(t), 2), np.nan)
     return {
         "theta_true": t,
         "theta_mean": cal.theta_mean_,
@@ -172,6 +177,8 @@ def _fit_and_score(spec, seed, n_test, n_rank):
         "lo": lo,
         "hi": hi,
         "covered": (lo <= t) & (t <= hi),
+        "covered_robust": (robust[:, 0] <= t) & (t <= robust[:, 1]),
+        "robust_width": (robust[:, 1] - robust[:, 0]) / (hi - lo),
         "z": (cal.theta_mean_ - t) / sd,
         "rank": np.sum(thinned(samples, n_rank) < t, axis=0),
         "cover_reality": float(cover_reality),
@@ -303,6 +310,8 @@ def summarise(records, n_rank=N_RANK):
             k_cov = stack["covered"].sum(axis=0)
             s["covered"] = k_cov
             s["wilson"] = [wilson_interval(k, n) for k in k_cov]
+            s["covered_robust"] = stack["covered_robust"].sum(axis=0)
+            s["robust_width"] = np.median(stack["robust_width"], axis=0)
             s["rms_z"] = rms(stack["z"])
             s["mean_z"] = stack["z"].mean(axis=0)
             tests = [rank_tests(col, n_rank) for col in stack["rank"].T]
@@ -334,6 +343,8 @@ _ARRAYS = (
     "lo",
     "hi",
     "covered",
+    "covered_robust",
+    "robust_width",
     "z",
     "rank",
     "cover_reality",
@@ -374,7 +385,7 @@ def format_tables(summary):
     detail = (
         f"{'case':<7} {'mean z':<13} {'post. sd: median [max]':<34} "
         f"{'sd ~ prior':<10} {'noise_/true (median)':<21} "
-        f"{'identifiability_':<17} fit [s]"
+        f"{'identifiability_':<17} {'robust covered [width]':<23} fit [s]"
     )
     lines += ["", detail, "-" * len(detail)]
     for name, s in summary.items():
@@ -386,10 +397,14 @@ def format_tables(summary):
         )
         ident = s["identifiability"]
         ident = "-" if np.all(np.isnan(ident)) else _join(ident, ".3g")
+        robust = ", ".join(
+            f"{k}/{s['n_ok']} [{w:.3g}]"
+            for k, w in zip(s["covered_robust"], s["robust_width"], strict=True)
+        )
         lines.append(
             f"{name:<7} {_join(s['mean_z'], '+.2f'):<13} "
             f"{sd_text:<34} {_join(s['prior_like'], 'd'):<10} "
-            f"{_join(s['noise_ratio'], '.2f'):<21} {ident:<17} "
+            f"{_join(s['noise_ratio'], '.2f'):<21} {ident:<17} {robust:<23} "
             f"{s['fit_seconds']:.1f}"
         )
     messages = Counter()
@@ -417,7 +432,8 @@ def save_records(records, out):
     fields = [
         "case", "seed", "parameter", "theta_true", "theta_mean", "theta_sd",
         "prior_sd", "lo", "hi", "covered", "z", "rank", "cover_reality", "cover_obs",
-        "noise_ratio", "identifiability", "fit_seconds", "warnings", "error",
+        "noise_ratio", "identifiability", "covered_robust", "robust_width",
+        "fit_seconds", "warnings", "error",
     ]  # fmt: skip
     with open(out / "replicates.csv", "w", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=fields)
@@ -429,7 +445,12 @@ def save_records(records, out):
                 row["warnings"] = ";".join(sorted(set(r["warning_categories"])))
                 row["error"] = r["error"]
                 if r["ok"]:
-                    for k in [*fields[3:12], "identifiability"]:
+                    for k in [
+                        *fields[3:12],
+                        "identifiability",
+                        "covered_robust",
+                        "robust_width",
+                    ]:
                         row[k] = r[k][j]
                     row["noise_ratio"] = _join(r["noise_ratio"], ".4g")
                     for k in ("cover_reality", "cover_obs", "fit_seconds"):

@@ -250,6 +250,14 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         (:class:`~skmba.exceptions.NonIdentifiabilityWarning`): a
         discrepancy can mimic its effect and its interval reflects the
         discrepancy prior more than the data.
+    theta_robust_interval_ : ndarray of shape (r, 2)
+        Per parameter, a 95 % interval that holds across plausible model
+        errors: the posterior mean plus and minus 1.96 times the linearised
+        posterior sd with the discrepancy of ``identifiability_``'s probe,
+        clipped to the prior's support. Close to the posterior's interval
+        where the data identify the parameter; most of the prior where a
+        discrepancy can mimic it (see "How honest are the intervals?" in
+        the User Guide for its coverage).
     parameter_names_ : list of str
         The names of the calibration parameters: the keys of a dict prior
         (or, without a prior, the columns of a ``theta_sim`` DataFrame),

@@ -20,6 +20,12 @@ interval is set by what the prior says about the discrepancy, not by the
 data. Below :data:`IDENTIFIABILITY_THRESHOLD` ``fit`` warns
 (:class:`~skmba.exceptions.NonIdentifiabilityWarning`).
 
+The linearised posterior sd with that discrepancy, ``probe_sd``, also gives
+``theta_robust_interval_`` (:func:`robust_interval`): theta's 95 % interval
+if the model error were of that plausible size, from the posterior mean and
+clipped to the prior's support. Where theta is identified it is about the
+posterior interval; where it is not, most of the prior.
+
 Examples
 --------
 >>> import numpy as np
@@ -28,9 +34,10 @@ array([0.])
 """
 
 import warnings
+from dataclasses import dataclass
 
 import numpy as np
-from scipy import linalg
+from scipy import linalg, stats
 
 from skmba._linalg import observed_block, observed_rows
 from skmba._regression import regression_basis
@@ -44,6 +51,30 @@ IDENTIFIABILITY_THRESHOLD = 1.0 / 3.0
 PROBE_LEVEL = 0.95
 # Finite-difference step of the sensitivities (standardised theta).
 _STEP = 1e-3
+#: Level of ``theta_robust_interval_`` (that of the validity suite's and
+#: ``summary()``'s intervals).
+ROBUST_LEVEL = 0.95
+# The prior's support, for clipping the robust interval: its central
+# 1 - 1e-9 (the support itself for a bounded prior).
+_SUPPORT = 1.0 - 1e-9
+
+
+@dataclass(frozen=True)
+class Identifiability:
+    """The probe of :func:`identifiability` (standardised theta).
+
+    Attributes
+    ----------
+    ratio : ndarray of shape (r,)
+        ``identifiability_``: linearised posterior sd without over with a
+        discrepancy of plausible size.
+    probe_sd : ndarray of shape (r,)
+        The linearised posterior sd with it (``inf`` where that discrepancy
+        can explain all of theta's effect).
+    """
+
+    ratio: np.ndarray
+    probe_sd: np.ndarray
 
 
 def _marginal_variances(info):
@@ -59,6 +90,20 @@ def _marginal_variances(info):
 def information_ratio(J, V0, K_d, X_d):
     """Linearised posterior sd ratio, without over with the discrepancy.
 
+    The arguments are those of :func:`linearised_sds`.
+    """
+    sd0, sd1 = linearised_sds(J, V0, K_d, X_d)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ratio = sd0 / sd1
+    return np.where(np.isfinite(ratio), ratio, 0.0)
+
+
+def linearised_sds(J, V0, K_d, X_d):
+    """Linearised posterior sds of theta, without and with the discrepancy.
+
+    ``sqrt(diag((J' V0^-1 J)^-1))`` and ``sqrt(diag((J' Pi J)^-1))``
+    (module docstring), ``inf`` where the information is singular.
+
     Parameters
     ----------
     J : ndarray of shape (m, r)
@@ -69,6 +114,10 @@ def information_ratio(J, V0, K_d, X_d):
         The discrepancy's covariance.
     X_d : ndarray of shape (m, p)
         The discrepancy's mean basis (flat prior on its coefficients).
+
+    Returns
+    -------
+    sd0, sd1 : ndarray of shape (r,)
     """
     C0 = linalg.cholesky(V0, lower=True)
     Jw = linalg.solve_triangular(C0, J, lower=True)
@@ -79,9 +128,7 @@ def information_ratio(J, V0, K_d, X_d):
     Q, _ = np.linalg.qr(Xw1)
     Jp = Jw1 - Q @ (Q.T @ Jw1)
     var1 = _marginal_variances(Jp.T @ Jp)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        ratio = np.sqrt(var0 / var1)
-    return np.where(np.isfinite(ratio), ratio, 0.0)
+    return np.sqrt(var0), np.sqrt(var1)
 
 
 def identifiability(model, theta, hyperprior):
@@ -96,7 +143,7 @@ def identifiability(model, theta, hyperprior):
 
     Returns
     -------
-    ndarray of shape (r,)
+    Identifiability
     """
     emulator, X_e, q, n = model.emulator, model.X_e, model.q, model.n
     r = theta.size
@@ -114,12 +161,47 @@ def identifiability(model, theta, hyperprior):
     K_d = np.kron(corr * np.outer(big, big), model.kernel_d(X_e))
     X_d = np.kron(np.eye(q), regression_basis(X_e, model.regression_d))
     obs = model.observed  # the measured entries only
-    return information_ratio(
+    args = (
         observed_rows(J, obs),
         observed_block(V0, obs),
         observed_block(K_d, obs),
         observed_rows(X_d, obs),
     )
+    return Identifiability(information_ratio(*args), linearised_sds(*args)[1])
+
+
+def robust_interval(mean, probe_sd, prior, level=ROBUST_LEVEL):
+    """``theta_robust_interval_``: ``mean -+ z probe_sd``, within the prior.
+
+    Parameters
+    ----------
+    mean : ndarray of shape (r,)
+        The posterior mean (user units).
+    probe_sd : ndarray of shape (r,)
+        :attr:`Identifiability.probe_sd` in user units.
+    prior : skmba prior object
+    level : float
+        Central probability of the Gaussian interval.
+
+    Returns
+    -------
+    ndarray of shape (r, 2)
+        Lower and upper ends, clipped to the prior's support (its central
+        ``1 - 1e-9`` for an unbounded prior).
+
+    Examples
+    --------
+    >>> from scipy import stats
+    >>> from skmba._priors import check_prior
+    >>> prior = check_prior([stats.uniform(0, 10), stats.uniform(0, 10)])
+    >>> robust_interval(np.array([5.0, 5.0]), np.array([1.0, np.inf]), prior)
+    array([[ 3.04003602,  6.95996398],
+           [ 0.        , 10.        ]])
+    """
+    half = stats.norm.ppf(0.5 + 0.5 * level) * np.asarray(probe_sd, dtype=float)
+    ends = np.column_stack([mean - half, mean + half])
+    support = prior.bounds(_SUPPORT)
+    return np.clip(ends, support[:, :1], support[:, 1:])
 
 
 def warn_if_confounded(values, names):

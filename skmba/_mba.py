@@ -27,7 +27,7 @@ from skmba._discrepancy import check_discrepancy_ranges, fit_discrepancy, ranges
 from skmba._emulator import Standardizer, fit_emulator
 from skmba._hyperposterior import fit_hyperposterior
 from skmba._hyperprior import Hyperprior
-from skmba._identifiability import identifiability
+from skmba._identifiability import identifiability, robust_interval
 from skmba._integration import (
     integrate_over_prior,
     integrate_over_rule,
@@ -451,7 +451,10 @@ def fitted_attributes(
         out["theta_log_posterior_"] = posterior.log_density
         out["acceptance_rate_"] = posterior.acceptance_rate
         out["rhat_"], out["ess_"] = posterior.rhat, posterior.ess
-    out["identifiability_"] = identifiability
+    out["identifiability_"] = identifiability.ratio
+    out["theta_robust_interval_"] = robust_interval(
+        posterior.mean, identifiability.probe_sd * scaler.theta_scale, prior
+    )
     out["global_model_"] = log_post.model
     out["_scaler"] = scaler
     out["_log_posterior"] = log_post
