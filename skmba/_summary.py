@@ -48,6 +48,8 @@ CALIBRATION_COLUMNS = (
     "r_hat",
     "ess_bulk",
     "identifiability",
+    "robust_2.5%",
+    "robust_97.5%",
 )
 
 
@@ -115,6 +117,8 @@ def _posterior_columns(cal):
         "r_hat": np.asarray(getattr(cal, "rhat_", nan), dtype=float),
         "ess_bulk": np.asarray(getattr(cal, "ess_", nan), dtype=float),
         "identifiability": np.asarray(cal.identifiability_, dtype=float),
+        "robust_2.5%": cal.theta_robust_interval_[:, 0],
+        "robust_97.5%": cal.theta_robust_interval_[:, 1],
     }
     return columns
 
@@ -152,7 +156,10 @@ def calibration_text(cal):
             text += (
                 f", R-hat {columns['r_hat'][j]:.3f}, ESS {columns['ess_bulk'][j]:.0f}"
             )
-        text += f", identifiability {columns['identifiability'][j]:.3g}"
+        text += (
+            f", identifiability {columns['identifiability'][j]:.3g}, robust 95% "
+            f"[{columns['robust_2.5%'][j]:.5g}, {columns['robust_97.5%'][j]:.5g}]"
+        )
         parts.append(text)
     method = "MCMC" if hasattr(cal, "theta_chains_") else "quadrature"
     return f"ModularBayesCalibrator ({method}): " + "; ".join(parts)
