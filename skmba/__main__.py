@@ -400,7 +400,10 @@ def _report_posterior(cal, data):
             "the discrepancy, not from the data. Where the model error is "
             "larger than that prior allows - a spring soft enough - the "
             "interval misses E*. Other responses (the sensor ranking below) "
-            "or prior information on E are what identify it."
+            "or prior information on E are what identify it. Across plausible "
+            "model errors (theta_robust_interval_) E lies in "
+            f"[{cal.theta_robust_interval_[0, 0] / 1e3:.1f}, "
+            f"{cal.theta_robust_interval_[0, 1] / 1e3:.1f}] GPa."
         )
     else:
         _say(
