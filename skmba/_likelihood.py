@@ -121,7 +121,11 @@ def _cholesky_inverse(C):
         raise FactorizationError(
             f"LAPACK dpotri failed (info={info}). {R_REMEDY}", what=R_WHAT
         )
-    return np.tril(inv) + np.tril(inv, -1).T
+    # Symmetrised in place: at most two N x N arrays at once (N=10000: 0.8 GB
+    # each).
+    inv = np.tril(inv)
+    inv += np.tril(inv, -1).T
+    return inv
 
 
 class NoiseFreeLikelihood:
@@ -200,7 +204,10 @@ class NoiseFreeLikelihood:
             # theta adds ridge * A Sigma2^-2 A'.
             A = linalg.solve_triangular(self.C, resid, lower=True, trans="T")
             B = linalg.solve_triangular(self.sigma2_chol, A.T, lower=True)
-            weight = B.T @ B - q * _cholesky_inverse(self.C)
+            # B'B - q R^-1, built in place (fewer N x N temporaries).
+            weight = _cholesky_inverse(self.C)
+            weight *= -q
+            weight += B.T @ B
             if ridge:
                 D = linalg.cho_solve((self.sigma2_chol, True), A.T)
                 weight += ridge * (D.T @ D)
@@ -313,7 +320,10 @@ class NoisyLikelihood:
             self.grad_kernel = np.zeros(_n_gradients(dR))
             if self.grad_kernel.size:
                 c1 = ke.w @ ke.e  # (N,): sum_i e_i w_ji
-                weight = A @ self.sigma2 @ A.T - (U * c1) @ U.T
+                # A Sigma2 A' - U diag(c1) U', built in place.
+                weight = (U * c1) @ U.T
+                weight *= -1.0
+                weight += (A @ self.sigma2) @ A.T
                 self.grad_kernel = 0.5 * _weighted_trace_gradient(dR, weight)
             RA = U @ (s[:, None] * (U.T @ A))
             c2 = s @ ke.w  # (q,): sum_j s_j w_ji
