@@ -152,9 +152,13 @@ class _DACECorrelation(StationaryKernelMixin, NormalizedKernelMixin, Kernel):
     def _validate_params(self):
         """Check family-specific parameters at call time (default: none)."""
 
-    def _zeta(self, absdiff, roughness):
-        """Scaled distance; must be proportional to ``roughness``."""
-        return absdiff * roughness
+    def _zeta(self, absdiff, roughness, out=None):
+        """Scaled distance; must be proportional to ``roughness``.
+
+        ``out`` (e.g. ``absdiff`` itself) receives it; the values are those
+        computed without it.
+        """
+        return np.multiply(absdiff, roughness, out=out)
 
     @staticmethod
     def _profile(zeta):  # pragma: no cover - abstract
@@ -233,12 +237,19 @@ class _DACECorrelation(StationaryKernelMixin, NormalizedKernelMixin, Kernel):
         absdiff = np.abs(X[:, np.newaxis, :] - Y[np.newaxis, :, :])
         return self._from_differences(absdiff, eval_gradient)
 
-    def _dimension(self, X, Y, j, roughness):
-        """``|Δ_j|`` and ``ζ_j`` of input dimension ``j``, shape (n, m)."""
-        absdiff = np.abs(X[:, j, np.newaxis] - Y[np.newaxis, :, j])
-        return absdiff, self._zeta(
-            absdiff, roughness[j] if roughness.ndim else roughness
-        )
+    def _dimension(self, X, Y, j, roughness, keep_absdiff=True):
+        """``|Δ_j|`` and ``ζ_j`` of input dimension ``j``, shape (n, m).
+
+        Without ``keep_absdiff``, ``ζ_j`` overwrites ``|Δ_j|`` (one n x m
+        array less at the peak of a large likelihood) and None is returned
+        in its place.
+        """
+        absdiff = X[:, j, np.newaxis] - Y[np.newaxis, :, j]
+        np.abs(absdiff, out=absdiff)
+        scale = roughness[j] if roughness.ndim else roughness
+        if keep_absdiff:
+            return absdiff, self._zeta(absdiff, scale)
+        return None, self._zeta(absdiff, scale, out=absdiff)
 
     def _correlation(self, X, Y):
         """``k(X, Y)`` one input dimension at a time.
@@ -257,7 +268,7 @@ class _DACECorrelation(StationaryKernelMixin, NormalizedKernelMixin, Kernel):
             else np.ones((len(X), len(Y)))
         )
         for j in range(X.shape[1]):
-            _, zeta = self._dimension(X, Y, j, roughness)
+            _, zeta = self._dimension(X, Y, j, roughness, keep_absdiff=False)
             if self._exponential:
                 K += zeta
             else:
@@ -314,12 +325,11 @@ class _DACECorrelation(StationaryKernelMixin, NormalizedKernelMixin, Kernel):
             np.negative(scaled, out=scaled)
             dprofile = 1.0
         for j in range(d if free else 0):
-            absdiff, zeta = self._dimension(X, X, j, roughness)
+            # |Δ_j| is needed after ζ_j only for the extra hyperparameters.
+            absdiff, zeta = self._dimension(X, X, j, roughness, keep_absdiff=extra)
             if self._exponential:
                 slope = zeta
             else:
-                if not extra:
-                    del absdiff  # one n x n array less at the peak
                 dprofile = self._profile_derivative(zeta)
                 scaled = self._others(X, j, roughness, K, self._profile(zeta), dprofile)
                 scaled *= weight
@@ -336,6 +346,10 @@ class _DACECorrelation(StationaryKernelMixin, NormalizedKernelMixin, Kernel):
                 ).items():
                     if name in totals:
                         totals[name][j] = np.vdot(scaled, value)
+            # Free this dimension's n x n arrays before the next is made.
+            del absdiff, zeta, slope
+            if not self._exponential:
+                del scaled, dprofile
         parts = [
             totals[name]
             if name == "roughness" and self.anisotropic
@@ -498,7 +512,10 @@ class GeneralizedExp(_ExponentialProfile):
     def _power(self):
         return float(np.ravel(self.power)[0])
 
-    def _zeta(self, absdiff, roughness):
+    def _zeta(self, absdiff, roughness, out=None):
+        # ``out`` is not used: numpy's ``**`` takes fast paths (square,
+        # sqrt) that ``np.power(..., out=)`` may not, and the values must
+        # not depend on the memory saving.
         return roughness * absdiff ** self._power()
 
     def _extra_log_gradients(self, absdiff, zeta, dprofile):
@@ -534,8 +551,8 @@ class Gauss(_ExponentialProfile):
     Gauss(roughness=[1, 2])
     """
 
-    def _zeta(self, absdiff, roughness):
-        zeta = np.square(absdiff)
+    def _zeta(self, absdiff, roughness, out=None):
+        zeta = np.square(absdiff, out=out)
         zeta *= roughness
         return zeta
 
