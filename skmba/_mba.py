@@ -25,6 +25,7 @@ from scipy import stats
 from skmba._columns import match_columns
 from skmba._discrepancy import check_discrepancy_ranges, fit_discrepancy, ranges_text
 from skmba._emulator import Standardizer, fit_emulator
+from skmba._global_model import GlobalModel
 from skmba._hyperposterior import fit_hyperposterior
 from skmba._hyperprior import Hyperprior
 from skmba._identifiability import identifiability, robust_interval
@@ -36,7 +37,6 @@ from skmba._integration import (
 from skmba._linalg import FEWER_FIELD_DATA, FLOAT_BYTES, check_memory, n_workers
 from skmba._mixture import ModelMixture
 from skmba._posterior import (
-    GlobalModel,
     LogPosterior,
     posterior_by_mcmc,
     posterior_by_quadrature,

@@ -3,7 +3,7 @@
 :class:`ModelMixture` is the global model of :mod:`skmba._posterior` at
 each draw ``phi_k`` of :func:`~skmba._hyperposterior.fit_hyperposterior`,
 with the likelihood ``log sum_k w_k p(data | theta, phi_k)``. It has the
-interface of :class:`~skmba._posterior.GlobalModel` that
+interface of :class:`~skmba._global_model.GlobalModel` that
 :class:`~skmba._posterior.LogPosterior` and the predictions use; the
 emulator given the simulations is computed once per theta for all draws.
 Module 4 predicts with one draw per posterior theta, picked with

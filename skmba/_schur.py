@@ -3,7 +3,7 @@
 The global model's covariance ``V_Y`` is factored through its simulation
 block ``A`` (the same for every theta and module-2 draw) and the Schur
 complement ``S = D - B' A^-1 B`` of its field block (see
-:class:`~skmba._posterior.GlobalModel`). With the simulation block
+:class:`~skmba._global_model.GlobalModel`). With the simulation block
 whitened and reduced once to the R factor ``G_top`` of its regression
 rows and the projection ``b_top`` of its data, what changes with theta (or
 with the module-2 hyperparameters, or the responses measured) is the
@@ -18,7 +18,7 @@ Examples
 --------
 ``tests/test_schur.py`` checks it against the dense Eq. 4.30;
 ``tests/test_mixture.py`` and ``tests/test_subset_likelihood.py`` against
-:class:`~skmba._posterior.GlobalModel`.
+:class:`~skmba._global_model.GlobalModel`.
 """
 
 import numpy as np

@@ -13,7 +13,7 @@ complement of each ``theta`` in one batched Cholesky
 Examples
 --------
 ``tests/test_subset_likelihood.py`` checks :class:`SubsetLikelihood`
-against :class:`~skmba._posterior.GlobalModel` restricted to the same
+against :class:`~skmba._global_model.GlobalModel` restricted to the same
 responses:
 
 >>> from skmba._subset_likelihood import FieldDesignEmulator, SubsetLikelihood
@@ -69,7 +69,7 @@ class FieldDesignEmulator:
 
         Returns ``(sigma2_m, G_top, b_top, rss_top_perp, log_det_A)`` for the
         subset: the QR of ``(L_S^-1 ⊗ C_m^-1 H_m)`` and the projection of the
-        whitened simulations on it, as in :class:`~skmba._posterior.GlobalModel`.
+        whitened simulations on it, as in :class:`~skmba._global_model.GlobalModel`.
         """
         key = tuple(responses)
         if key not in self._blocks:

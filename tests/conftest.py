@@ -7,7 +7,7 @@ import pytest
 
 from skmba import MultiResponseGP
 from skmba._emulator import Emulator
-from skmba._posterior import GlobalModel
+from skmba._global_model import GlobalModel
 from skmba._regression import regression_basis
 from skmba.kernels import Exp, Gauss
 

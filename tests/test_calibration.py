@@ -21,6 +21,7 @@ from sklearn.gaussian_process.kernels import RBF, ConstantKernel
 from sklearn.metrics import r2_score
 
 import skmba._discrepancy as discrepancy_module
+import skmba._global_model as global_model_module
 import skmba._integration as integration_module
 import skmba._linalg as linalg_module
 import skmba._mba as mba_module
@@ -41,9 +42,9 @@ def test_unevaluable_likelihood_names_the_cause(monkeypatch, treatment):
 
     # Every theta and every draw of the mixture fails; the single model's
     # factorisation says why.
-    monkeypatch.setattr(posterior_module.GlobalModel, "whiten", fail)
+    monkeypatch.setattr(global_model_module.GlobalModel, "whiten", fail)
     monkeypatch.setattr(
-        posterior_module.GlobalModel, "stacked_log_likelihoods", singular
+        global_model_module.GlobalModel, "stacked_log_likelihoods", singular
     )
     with pytest.raises(
         posterior_module.FactorizationError,
@@ -1139,8 +1140,8 @@ def test_a_numpy_generator_seeds_the_fit_reproducibly():
 def test_module2_treatments():
     # "propagate" (default) integrates the module-2 hyperparameters out over
     # draws; "plug-in" is the thesis' MBA with one global model.
+    from skmba._global_model import GlobalModel
     from skmba._mixture import ModelMixture
-    from skmba._posterior import GlobalModel
 
     data = make_cantilever(30, 10, random_state=0)
     default = fit(data, n_restarts_optimizer=0)

@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 from scipy import special
 
+from skmba._global_model import GlobalModel
 from skmba._hyperposterior import DiscrepancyComponent, HyperposteriorDraws
 from skmba._linalg import FactorizationError
 from skmba._mixture import ModelMixture
-from skmba._posterior import GlobalModel
 from skmba._prediction import conditional_moments
 from skmba.kernels import Gauss
 

@@ -6,7 +6,7 @@ from conftest import discrepancy, fixed_gp
 from sklearn.base import clone
 
 from skmba._emulator import Emulator
-from skmba._posterior import GlobalModel
+from skmba._global_model import GlobalModel
 from skmba._regression import regression_basis
 from skmba._subset_likelihood import FieldDesignEmulator, SubsetLikelihood
 from skmba.kernels import Gauss
