@@ -28,7 +28,8 @@ With ``--large`` (issue 15, large emulators) it prints instead:
 Every run starts with the threads line of ``skmba._threads``.
 
 Run with ``python benchmarks/bench_gp.py`` (add ``--quick`` for a smaller
-smoke run, ``--large`` for the large emulators). Targets: ratio <= 1.0;
+smoke run, ``--large`` for the large emulators, ``--ratios`` for item 5
+alone). Targets: ratio <= 1.0;
 noisy q=16 under 16x the time of q=2.
 """
 
@@ -241,16 +242,35 @@ def large_fit(n, d, q, n_test=10_000, seed=0):
     print(f"  fitted kernel:             {gp.kernel_}")
 
 
+def sklearn_ratios(ns):
+    """Item 5: the time ratio to sklearn (one GPR per response) at ``ns``."""
+    ratios = {
+        n: compare_with_sklearn(n=n, d=4, q=4, restarts=0, per_response=True)
+        for n in ns
+    }
+    print(
+        "ratio skmba / sklearn (one GPR per response): "
+        + ", ".join(f"N={n}: {r:.2f}" for n, r in ratios.items())
+    )
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="small smoke run")
     parser.add_argument(
         "--large", action="store_true", help="large emulators (issue 15)"
     )
+    parser.add_argument(
+        "--ratios",
+        action="store_true",
+        help="only item 5: the time ratio to sklearn at N = 500, 1000, 2000",
+    )
     args = parser.parse_args()
     warnings.simplefilter("ignore", ConvergenceWarning)
     print(describe_threads())
-    if args.large:
+    if args.ratios:
+        sklearn_ratios((200, 400) if args.quick else (500, 1000, 2000))
+    elif args.large:
         n_mem, n_fit, ns = (
             (600, 1200, (200, 400)) if args.quick else (3000, 5000, (500, 1000, 2000))
         )
@@ -258,14 +278,7 @@ def main():
         large_fit(n=n_fit, d=4, q=4)
         if not args.quick:
             large_fit(n=10_000, d=4, q=4)  # about 3.5 minutes, 6 GB
-        ratios = {
-            n: compare_with_sklearn(n=n, d=4, q=4, restarts=0, per_response=True)
-            for n in ns
-        }
-        print(
-            "ratio skmba / sklearn (one GPR per response): "
-            + ", ".join(f"N={n}: {r:.2f}" for n, r in ratios.items())
-        )
+        sklearn_ratios(ns)
     elif args.quick:
         compare_with_sklearn(n=100, d=4, q=3, restarts=0)
         noisy_scaling(n=80, qs=(1, 2, 4))

@@ -64,6 +64,15 @@ def test_wilson_interval_edges():
     assert all(np.isnan(validity.wilson_interval(0, 0)))
 
 
+def test_mean_interval_is_the_t_interval_over_seeds():
+    values = np.array([0.96, 0.9, 0.98, 0.82, 0.94, 1.0])
+    expected = stats.t.interval(
+        0.95, len(values) - 1, loc=values.mean(), scale=stats.sem(values)
+    )
+    np.testing.assert_allclose(validity.mean_interval(values), expected, rtol=1e-12)
+    assert validity.mean_interval([0.9]) == (0.9, 0.9)
+
+
 def test_rms_and_bins():
     assert validity.rms([3.0, -4.0]) == pytest.approx(math.sqrt(12.5))
     np.testing.assert_allclose(validity.rms([[1.0, 2.0], [-1.0, 0.0]]), [1, 2**0.5])
