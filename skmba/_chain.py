@@ -44,6 +44,38 @@ proposals do not depend on the chain's position, so those of a block of
 steps are drawn first and their densities computed together: a
 ``log_density`` with a ``batch`` method (``batch(thetas) -> values`` for
 ``thetas`` of shape (m, r)) evaluates them as one vectorised call.
+
+A *labelled* target is a finite mixture ``p(theta) = sum_k p(theta, k)``
+(``n_labels`` > 1; the calibrator's posterior over its module-2 draws)
+whose joint density ``p(theta, k)`` costs one K-th of ``p(theta)``. The
+chain then samples ``(theta, k)`` (data augmentation; Tanner & Wong 1987):
+
+* at the start of each burn-in block (every ``_ADAPT_INTERVAL`` steps), a
+  Gibbs update draws ``k`` from ``p(k | theta)``, which takes all K
+  components at one theta;
+* random-walk moves change ``theta`` at fixed ``k``;
+* independence moves propose ``k`` too, from the mean of the conditional
+  probabilities ``p(k | theta)`` of the Gibbs updates in the latest half
+  of the burn-in (a Rao-Blackwell estimate of the labels' marginal
+  probabilities) mixed with a uniform share
+  :data:`_LABEL_UNIFORM_SHARE`, so that every label stays reachable, and
+  are accepted with the joint ratio ``p(y, k') g(x) q(k) / (p(x, k) g(y)
+  q(k'))``;
+* without a label proposal after burn-in (``independence=0``), the Gibbs
+  updates go on every ``_ADAPT_INTERVAL`` steps.
+
+Each step then evaluates one component instead of ``n_labels``; the draws
+of ``theta`` follow the mixture, and their log density, the mixture's, is
+computed at the end, at the distinct draws only. On the 4.7.3 cantilever
+(K = 12 draws with weight, 4 chains of 1000 draws after 500), the joint
+chains reached a bulk ESS of 1466 against 1367 for the chains on the
+mixture, at about a third of the cost per step. A label proposal from
+the frequencies of the sampled labels in the window instead gave an ESS of
+455 (uniform share 0.2): the chains visit few of the labels in a window,
+while each Gibbs update's conditional probabilities cover all of them.
+The target provides ``labelled(thetas, labels) -> values`` (the joint log
+densities), ``components(theta) -> values`` (of shape (n_labels,)) and
+``batch`` (the mixture's).
 """
 
 import math
@@ -89,6 +121,9 @@ _T_DF = 5.0
 # would be as narrow as the window there, and its draws would keep it so
 # (a start 1e5 times off in scale stayed so for 2000 steps).
 _INDEPENDENCE_START = 0.5
+#: Share of the uniform distribution in the label proposal of a labelled
+#: target's independence moves (see the module docstring).
+_LABEL_UNIFORM_SHARE = 0.1
 
 
 def evaluate(log_density, theta, chain):
@@ -154,7 +189,9 @@ class _Block:
     ``independent`` marks the steps that are independence moves; their
     proposals, the target's and the proposal's log densities there are in
     ``proposals``, ``values`` and ``g_values`` (rows of the other steps
-    unused). ``next`` is the first step not yet made.
+    unused), with the proposed ``labels`` of a labelled target; ``label_u``
+    are the uniforms of a labelled target's label proposals and Gibbs
+    updates (None otherwise). ``next`` is the first step not yet made.
     """
 
     increments: np.ndarray
@@ -163,6 +200,8 @@ class _Block:
     proposals: np.ndarray
     values: np.ndarray
     g_values: np.ndarray
+    labels: np.ndarray
+    label_u: np.ndarray | None
     next: int = 0
 
 
@@ -185,6 +224,30 @@ def _evaluate_batch(log_density, thetas, chain):
             f"return {len(thetas)} finite floats or -inf (zero density)"
         )
     return values
+
+
+def _evaluate_labelled(log_density, thetas, labels, chain):
+    """The joint log density of a labelled target at ``(thetas[b], labels[b])``."""
+    try:
+        values = np.asarray(log_density.labelled(thetas, labels), dtype=float)
+    except Exception as exc:
+        raise RuntimeError(
+            f"log_density.labelled raised {type(exc).__name__} in chain {chain} "
+            f"at {len(thetas)} points: {exc}"
+        ) from exc
+    if values.shape != (len(thetas),) or np.any(np.isnan(values) | (values == np.inf)):
+        raise RuntimeError(
+            f"log_density.labelled returned {values!r} in chain {chain}; it must "
+            f"return {len(thetas)} finite floats or -inf (zero density)"
+        )
+    return values
+
+
+def _draw_label(probs, u):
+    """The label of probabilities ``probs`` that the uniform ``u`` picks."""
+    cumulative = np.cumsum(probs)
+    k = int(np.searchsorted(cumulative, u * cumulative[-1], side="right"))
+    return min(k, len(probs) - 1)
 
 
 class Chain:
@@ -212,6 +275,8 @@ class Chain:
         adapt,
         chain,
         independence=0.0,
+        n_labels=1,
+        keep_log_density=True,
     ):
         r = start.size
         self.chain = chain
@@ -237,6 +302,21 @@ class Chain:
         self.drawn = 0  # draws kept
         self.pending = None  # the _Block of the draws under way
         self.seconds = self.seconds_burn_in = 0.0
+        # A labelled target: the label of the current point (None: not yet
+        # drawn), the label proposal, p(k | theta) at the latest Gibbs update
+        # and at the one of each burn-in block, and the labels of the draws.
+        self.n_labels = n_labels
+        self.keep_log_density = keep_log_density
+        self.label = None
+        self.label_probs = None
+        self.conditional = None
+        self.label_conditionals = np.zeros((n_blocks, n_labels))
+        self.labels = np.zeros(n_samples, dtype=int)
+
+    @property
+    def labelled(self):
+        """The target is a mixture sampled with its labels."""
+        return self.n_labels > 1
 
     @property
     def total(self):
@@ -258,6 +338,8 @@ class Chain:
     def advance(self, log_density, until):
         """Steps up to ``until`` (burn-in blocks are not split)."""
         started = time.perf_counter()
+        if self.labelled and self.label is None:
+            self._gibbs_label(log_density, self.rng.random())
         while self.burned < self.burn_in and self.steps < until:
             self._burn_in_block(log_density)
         if self.burned == self.burn_in and not self.frozen:
@@ -281,17 +363,33 @@ class Chain:
         independent = np.zeros(m, dtype=bool)
         proposals = np.empty((m, r))
         values = g_values = np.empty(m)
+        labels = np.zeros(m, dtype=int)
+        label_u = self.rng.random(m) if self.labelled else None
         if self.proposal is not None and self.independence > 0.0:
             independent = self.rng.random(m) < self.independence
             k = int(independent.sum())
             proposals[independent] = self.proposal.draw(self.rng, k)
             values, g_values = np.empty(m), np.empty(m)
-            if k:
+            if k and self.labelled:
+                picked = np.searchsorted(
+                    np.cumsum(self.label_probs), label_u[independent], side="right"
+                )
+                drawn = np.minimum(picked, self.n_labels - 1)
+                labels[independent] = drawn
+                values[independent] = _evaluate_labelled(
+                    log_density, proposals[independent], drawn, self.chain
+                )
+                g_values[independent] = self.proposal.logpdf(
+                    proposals[independent]
+                ) + np.log(self.label_probs[drawn])
+            elif k:
                 values[independent] = _evaluate_batch(
                     log_density, proposals[independent], self.chain
                 )
                 g_values[independent] = self.proposal.logpdf(proposals[independent])
-        return _Block(increments, log_u, independent, proposals, values, g_values)
+        return _Block(
+            increments, log_u, independent, proposals, values, g_values, labels, label_u
+        )
 
     def _step(self, log_density, block, i, scale=1.0):
         """Step ``i`` of ``block`` from ``self.theta``.
@@ -303,15 +401,22 @@ class Chain:
         theta, logp = self.theta, self.logp
         if block.independent[i]:
             if self.glogp is None:
-                self.glogp = float(self.proposal.logpdf(theta[None, :])[0])
+                self.glogp = self._proposal_logpdf(theta)
             value, g_value = block.values[i], block.g_values[i]
             if block.log_u[i] < (value - logp) - (g_value - self.glogp):
                 self.theta, self.logp = block.proposals[i].copy(), value
                 self.glogp = g_value
+                if self.labelled:
+                    self.label = int(block.labels[i])
                 return True, None
             return False, None
         proposal = theta + scale * block.increments[i]
-        value = evaluate(log_density, proposal, self.chain)
+        if self.labelled:
+            value = _evaluate_labelled(
+                log_density, proposal[None, :], np.array([self.label]), self.chain
+            )[0]
+        else:
+            value = evaluate(log_density, proposal, self.chain)
         diff = value - logp
         alpha = 1.0 if diff >= 0.0 else math.exp(diff)
         if block.log_u[i] < diff:
@@ -331,6 +436,10 @@ class Chain:
         target = _TARGET_ACCEPTANCE_1D if r == 1 else _TARGET_ACCEPTANCE
         b, step = self.burned // _ADAPT_INTERVAL, self.burned
         m = min(_ADAPT_INTERVAL, self.burn_in - step)
+        if self.labelled:
+            if step > 0:  # the first block's label is drawn by advance
+                self._gibbs_label(log_density, self.rng.random())
+            self.label_conditionals[b] = self.conditional
         block = self._block(log_density, m, self.chol)
         path = np.empty((m, r))
         n_accept = 0
@@ -365,6 +474,8 @@ class Chain:
             self._adapt(*moments)
         if self.independence > 0.0 and step >= _INDEPENDENCE_START * self.burn_in:
             self._set_proposal(*moments)
+            if self.labelled and self.proposal is not None:
+                self._set_label_proposal(self.label_conditionals[window].mean(axis=0))
 
     def _adapt(self, mean, cov):
         """The random-walk proposal from a window's moments; kept as it is
@@ -386,6 +497,52 @@ class Chain:
             return
         self.glogp = None
 
+    def _set_label_proposal(self, conditionals):
+        """The label proposal: the mean of the labels' conditional
+        probabilities ``p(k | theta)`` at the window's Gibbs updates (a
+        Rao-Blackwell estimate of their marginal ones), mixed with a uniform
+        share."""
+        share = _LABEL_UNIFORM_SHARE
+        self.label_probs = (1.0 - share) * conditionals + share / self.n_labels
+        self.glogp = None
+
+    def _proposal_logpdf(self, theta):
+        """Log density of the independence proposal at the current point."""
+        if not self.labelled:
+            return float(self.proposal.logpdf(theta[None, :])[0])
+        value = self.proposal.logpdf(theta[None, :])[0]
+        return float(value) + math.log(self.label_probs[self.label])
+
+    def _gibbs_label(self, log_density, u):
+        """Draw the label from ``p(k | theta)`` (a Gibbs update), with the
+        uniform ``u``; the current point's log density becomes the joint one."""
+        try:
+            values = np.asarray(log_density.components(self.theta.copy()), dtype=float)
+        except Exception as exc:
+            raise RuntimeError(
+                f"log_density.components raised {type(exc).__name__} in chain "
+                f"{self.chain} at theta={self.theta!r}: {exc}"
+            ) from exc
+        if values.shape != (self.n_labels,) or not np.any(np.isfinite(values)):
+            raise RuntimeError(
+                f"log_density.components returned {values!r} in chain "
+                f"{self.chain}; it must return {self.n_labels} floats, one finite"
+            )
+        w = np.exp(values - np.max(values))
+        self.conditional = w / w.sum()
+        self.label = _draw_label(self.conditional, u)
+        self.logp, self.glogp = float(values[self.label]), None
+
+    def _marginal_values(self, log_density):
+        """The mixture's log density at the kept draws of a labelled chain
+        (the joint one was kept while sampling), evaluated once per distinct
+        draw: a rejected move repeats the previous draw."""
+        samples = self.samples
+        new = np.ones(len(samples), dtype=bool)
+        new[1:] = np.any(samples[1:] != samples[:-1], axis=1)
+        values = _evaluate_batch(log_density, samples[new], self.chain)
+        self.values = values[np.cumsum(new) - 1]
+
     def _draws(self, log_density, n_steps):
         """``n_steps`` more draws with the frozen kernel.
 
@@ -400,7 +557,13 @@ class Chain:
                 self.pending = self._block(log_density, m, self.chol)
             block = self.pending
             stop = min(len(block.log_u), block.next + end - step)
+            # Without label proposals, Gibbs updates move the label.
+            gibbs = self.labelled and (
+                self.label_probs is None or not self.independence
+            )
             for i in range(block.next, stop):
+                if gibbs and step % _ADAPT_INTERVAL == 0:
+                    self._gibbs_label(log_density, block.label_u[i])
                 accepted, _ = self._step(log_density, block, i)
                 self.n_accept += accepted
                 if block.independent[i]:
@@ -408,11 +571,14 @@ class Chain:
                     self.n_independent_accept += accepted
                 samples[step] = self.theta
                 values[step] = self.logp
+                self.labels[step] = self.label if self.labelled else 0
                 step += 1
             block.next = stop
             if stop == len(block.log_u):
                 self.pending = None
         self.drawn = step
+        if self.labelled and self.keep_log_density and step == self.n_samples:
+            self._marginal_values(log_density)
 
 
 def _window_moments(counts, means, m2s, accepts):

@@ -92,14 +92,14 @@ class HyperposteriorDraws:
         ``log p(phi_k) - log q(phi_k)``, normalised to sum to one.
     laplace_cov : ndarray
         Covariance of the Laplace approximation (unbounded coordinates).
-    noise_mean : ndarray of shape (q,)
+    noise_mean : ndarray of shape (q,) or None
         Posterior mean of the noise variances, an importance estimate with
         :data:`N_NOISE_DRAWS` draws of the same proposal weighted by the
         module-2 posterior: the noise a new observation adds. The ``K``
         draws module 3 mixes over give it poorly (their likelihood weights
         at any theta fall on a few draws near the mode), and the mode
         underestimates it (the noise posterior is skewed to the right).
-    noise_ess : float
+    noise_ess : float or None
         Effective sample size of that estimate (Kish).
     """
 
@@ -107,8 +107,8 @@ class HyperposteriorDraws:
     components: list
     log_weights: np.ndarray
     laplace_cov: np.ndarray
-    noise_mean: np.ndarray
-    noise_ess: float
+    noise_mean: np.ndarray | None
+    noise_ess: float | None
 
     @property
     def regression(self):
@@ -283,6 +283,7 @@ def fit_hyperposterior(
     n_draws=N_HYPER_DRAWS,
     random_state=None,
     progress=None,
+    noise_mean=True,
 ):
     """Module 2b with its uncertainty: mode, Laplace and draws of ``phi``.
 
@@ -308,6 +309,10 @@ def fit_hyperposterior(
         ``K``, the draws module 3 mixes over (a power of two).
     random_state : int, SeedSequence or None
     progress : skmba._progress.Progress, default=None
+    noise_mean : bool, default=True
+        Estimate the noise variances' posterior mean (what predictions of
+        new observations add); False skips it (``noise_mean`` and
+        ``noise_ess`` are then None), for a pass that does not predict.
 
     Returns
     -------
@@ -377,5 +382,9 @@ def fit_hyperposterior(
         kern = fit.kernel.clone_with_theta(theta) if k else fit.kernel
         sigma2 = L @ L.T
         components.append(DiscrepancyComponent(kern, sigma2, lam, regression))
-    noise_mean, noise_ess = _noise_posterior_mean(coords, best.x, cov, noise_seed)
-    return HyperposteriorDraws(fit, components, log_w, cov, noise_mean, noise_ess)
+    noise = (
+        _noise_posterior_mean(coords, best.x, cov, noise_seed)
+        if noise_mean
+        else (None, None)
+    )
+    return HyperposteriorDraws(fit, components, log_w, cov, *noise)

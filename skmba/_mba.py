@@ -223,6 +223,7 @@ def run_modules(est, X, Y, sims, prior, ranges, seeds, progress):
             (disc, draws),
             seeds[5],
             progress,
+            earlier=module3["posterior"],
         )
     hyperprior = ranges if isinstance(ranges, Hyperprior) else Hyperprior()
     base = module3["log_post"].model
@@ -246,7 +247,16 @@ def _module2(est, emulator, scaler, prior, Xs, Ys, ranges, seeds, progress):
     )
     if isinstance(ranges, Hyperprior):
         return _hyperposterior(
-            est, Xs, Ys, integrated, ranges, seeds[2], progress, scaler, "1st pass"
+            est,
+            Xs,
+            Ys,
+            integrated,
+            ranges,
+            seeds[2],
+            progress,
+            scaler,
+            "1st pass",
+            predicts=False,
         )
     disc = fit_discrepancy(
         Xs,
@@ -272,8 +282,11 @@ def _say_module2(progress, started, disc, scaler, how):
     )
 
 
-def _hyperposterior(est, Xs, Ys, integrated, prior, seed, progress, scaler, label):
-    """Module 2b with its uncertainty (:func:`fit_hyperposterior`)."""
+def _hyperposterior(
+    est, Xs, Ys, integrated, prior, seed, progress, scaler, label, predicts=True
+):
+    """Module 2b with its uncertainty (:func:`fit_hyperposterior`); the noise
+    variances' posterior mean only for the pass that ``predicts``."""
     started = time.perf_counter()
     settings = module_settings(est)["discrepancy"]
     draws = fit_hyperposterior(
@@ -287,6 +300,7 @@ def _hyperposterior(est, Xs, Ys, integrated, prior, seed, progress, scaler, labe
         n_restarts=settings["n_restarts"],
         random_state=seed,
         progress=progress,
+        noise_mean=predicts,
     )
     how = f"{label}: posterior mode; {len(draws.components)} draws"
     _say_module2(progress, started, draws.mode, scaler, how)
@@ -294,8 +308,9 @@ def _hyperposterior(est, Xs, Ys, integrated, prior, seed, progress, scaler, labe
 
 
 #: The first of the two passes of the propagated module 2 needs only where
-#: the posterior is: MCMC draws (per chain) and burn-in of that pass.
-FIRST_PASS_MCMC = {"n_samples": 250, "burn_in": 500}
+#: the posterior is: the chains, MCMC draws (per chain) and burn-in of that
+#: pass (at most; fewer when the calibrator's own are).
+FIRST_PASS_MCMC = {"n_chains": 2, "n_samples": 250, "burn_in": 500}
 
 
 def _module3(
@@ -311,8 +326,13 @@ def _module3(
     progress,
     *,
     first_pass=False,
+    earlier=None,
 ):
-    """Module 3: the posterior of theta, and module 4's rule over it."""
+    """Module 3: the posterior of theta, and module 4's rule over it.
+
+    ``earlier``: the first pass's posterior (propagated module 2), whose
+    MCMC draws start the second pass's chains.
+    """
     say = progress.info
     started = time.perf_counter()
     (n, d), q = Xs.shape, Ys.shape[1]
@@ -337,19 +357,29 @@ def _module3(
             say=say,
         )
     else:
-        length = {"n_samples": est.n_samples, "burn_in": est.burn_in}
+        length = {
+            "n_chains": est.n_chains,
+            "n_samples": est.n_samples,
+            "burn_in": est.burn_in,
+        }
         if first_pass:
             length = {k: min(v, length[k]) for k, v in FIRST_PASS_MCMC.items()}
         posterior = posterior_by_mcmc(
             log_post,
-            n_chains=est.n_chains,
             **length,
             n_jobs=est.n_jobs,
             random_state=seed,
             progress=progress,
             check=not first_pass,
+            earlier=(
+                earlier.samples
+                if earlier is not None and earlier.method == "mcmc"
+                else None
+            ),
         )
-    rule = prediction_rule(posterior, log_post, random_state=seed)
+    rule = prediction_rule(
+        posterior, log_post, random_state=seed, with_draws=not first_pass
+    )
     say(posterior.summary(time.perf_counter() - started))
     return dict(
         log_post=log_post,

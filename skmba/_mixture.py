@@ -46,7 +46,10 @@ class ModelMixture:
         for name in ("N", "n", "q", "P", "X_e", "noise", "emulator"):
             setattr(self, name, getattr(base, name))
         # What a new observation adds: the noise variances' posterior mean.
-        self.predictive_noise = np.asarray(draws.noise_mean, dtype=float)
+        # (None: not estimated, a mixture that does not predict.)
+        self.predictive_noise = (
+            None if draws.noise_mean is None else np.asarray(draws.noise_mean, float)
+        )
 
     def __copy__(self):
         other = object.__new__(type(self))
@@ -88,23 +91,47 @@ class ModelMixture:
         FactorizationError
             When the regression is rank deficient at one of ``thetas``.
         """
+        return self._stacked(thetas, None)
+
+    def labelled_log_likelihoods(self, thetas, labels):
+        """``log w_k + log p(data | theta_b, phi_k)`` with ``k = labels[b]``
+        (B,): one draw per theta, the joint density of theta and the draw
+        that a sampler over both needs (:mod:`skmba._chain`).
+
+        Raises
+        ------
+        FactorizationError
+            When the regression is rank deficient at one of ``thetas``.
+        """
+        labels = np.asarray(labels, dtype=int)
+        return self._stacked(thetas, labels)
+
+    def _stacked(self, thetas, labels):
+        """Every draw at each theta (``labels`` None: (B, K)), or draw
+        ``labels[b]`` at ``thetas[b]`` ((B,)), as stacks of factorisations."""
         base = self.base
         if self._S_fixed is None:
             self._S_fixed = np.stack([mdl.S_fixed for mdl in self.models])
             self._noise_floor = min(mdl.noise_floor for mdl in self.models)
         K, m = self._S_fixed.shape[:2]
-        out = np.empty((len(thetas), K))
-        for chunk in stack_chunks(len(thetas), K, m, base.P + 1):
+        per_theta = K if labels is None else 1
+        out = np.empty((len(thetas), per_theta))
+        for chunk in stack_chunks(len(thetas), per_theta, m, base.P + 1):
             cond, terms = base.conditionals(thetas[chunk])
             Z = base.field_rows(cond)
             B = len(terms)
-            S = (self._S_fixed[None] + terms[:, None]).reshape(B * K, m, m)
-            Z = np.broadcast_to(Z[:, None], (B, K, *Z.shape[1:])).reshape(
-                B * K, *Z.shape[1:]
-            )
+            if labels is None:
+                S = (self._S_fixed[None] + terms[:, None]).reshape(B * K, m, m)
+                Z = np.broadcast_to(Z[:, None], (B, K, *Z.shape[1:])).reshape(
+                    B * K, *Z.shape[1:]
+                )
+            else:
+                S = self._S_fixed[labels[chunk]] + terms
             values = base.stacked_log_likelihoods(S, Z, self._noise_floor)
-            out[chunk] = values.reshape(B, K)
-        return self.log_weights + out
+            out[chunk] = values.reshape(B, per_theta)
+        if labels is None:
+            return self.log_weights + out
+        return self.log_weights[labels] + out[:, 0]
 
     def log_likelihood(self, theta):
         """``log sum_k w_k p(data | theta, phi_k)``."""

@@ -23,7 +23,7 @@ import warnings
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy import optimize
+from scipy import optimize, special
 
 from skmba._diagnostics import check_diagnostics
 from skmba._linalg import (
@@ -131,8 +131,32 @@ class LogPosterior:
         The likelihoods of all the points inside the prior's support are
         evaluated together (:meth:`GlobalModel.log_likelihoods`).
         """
+        return self._log_density_rows(U, self.model.log_likelihoods)
+
+    def log_density_u_components(self, U):
+        """Over a :class:`~skmba._mixture.ModelMixture`, the joint log density
+        of ``u`` and each module-2 draw ``k`` at the rows of ``U`` (m, r):
+        (m, K); their ``logsumexp`` over ``k`` is :meth:`log_density_u`."""
+        K = len(self.model.models)
+        return self._log_density_rows(
+            U, self.model.batch_component_log_likelihoods, width=K
+        )
+
+    def log_density_u_labelled(self, U, labels):
+        """Over a mixture, the joint log density of ``U[b]`` and the module-2
+        draw ``labels[b]`` (m,)."""
+        return self._log_density_rows(
+            U, self.model.labelled_log_likelihoods, np.asarray(labels, dtype=int)
+        )
+
+    def _log_density_rows(self, U, likelihoods, labels=None, width=None):
+        """The log density of the rows of ``U`` with the log likelihoods
+        ``likelihoods(thetas[, labels])`` of the rows inside the prior's
+        support, evaluated together; one by one when the batch raises
+        (a rank-deficient regression at some theta gets -inf)."""
         theta = self.from_u(U)
-        out = np.full(len(theta), -np.inf)
+        shape = (len(theta),) if width is None else (len(theta), width)
+        out = np.full(shape, -np.inf)
         log_prior = np.full(len(theta), -np.inf)
         finite = np.all(np.isfinite(theta), axis=1)
         if finite.any():
@@ -140,14 +164,21 @@ class LogPosterior:
         inside = np.isfinite(log_prior)
         if not inside.any():
             return out
-        t = theta[inside]
+        t = self.scaler.theta(theta[inside])
+        extra = () if labels is None else (labels[inside],)
         try:
-            values = self.model.log_likelihoods(self.scaler.theta(t))
-        except FactorizationError:  # rank deficient at some theta: one by one
-            values = np.array([self(x) for x in t]) - log_prior[inside]
-        out[inside] = (
-            log_prior[inside] + values + np.sum(np.log(t[:, self.log_dims]), axis=1)
-        )
+            values = likelihoods(t, *extra)
+        except FactorizationError:
+            values = np.full((len(t), *shape[1:]), -np.inf)
+            for i in range(len(t)):
+                try:
+                    row = (e[i : i + 1] for e in extra)
+                    values[i] = likelihoods(t[i : i + 1], *row)[0]
+                except FactorizationError:
+                    continue
+        jacobian = np.sum(np.log(theta[inside][:, self.log_dims]), axis=1)
+        offset = log_prior[inside] + jacobian
+        out[inside] = values + (offset if width is None else offset[:, None])
         return out
 
     def raise_unevaluable(self, thetas):
@@ -172,10 +203,18 @@ class LogPosterior:
 
 
 class _ChainTarget:
-    """Log density of the MCMC coordinates for one chain (picklable)."""
+    """Log density of the MCMC coordinates for one chain (picklable).
+
+    Over a mixture of module-2 draws, the chain samples theta and the draw
+    together (:mod:`skmba._chain`, labelled targets): ``n_labels`` draws,
+    the joint density of a theta and a draw (:meth:`labelled`) and of a
+    theta and every draw (:meth:`components`).
+    """
 
     def __init__(self, log_posterior):
         self.log_posterior = log_posterior.with_own_cache()
+        models = getattr(log_posterior.model, "models", None)
+        self.n_labels = 1 if models is None else len(models)
 
     def __call__(self, u):
         return self.log_posterior.log_density_u(u)
@@ -183,6 +222,14 @@ class _ChainTarget:
     def batch(self, U):
         """Log density at the rows of ``U`` (m, r), evaluated together."""
         return self.log_posterior.log_density_u_batch(U)
+
+    def labelled(self, U, labels):
+        """Joint log density of ``U[b]`` and module-2 draw ``labels[b]``."""
+        return self.log_posterior.log_density_u_labelled(U, labels)
+
+    def components(self, u):
+        """Joint log density of ``u`` (r,) and each module-2 draw (K,)."""
+        return self.log_posterior.log_density_u_components(u[None, :])[0]
 
 
 @dataclass(frozen=True)
@@ -205,7 +252,11 @@ class PosteriorResult:
         MCMC diagnostics.
     log_density : ndarray of shape (n_chains, n_samples) or None
         The log posterior (:class:`LogPosterior`, user units, up to a
-        constant) at each draw of ``chains``; MCMC only.
+        constant) at each draw of ``chains``; MCMC only (None for a first
+        pass run without it).
+    labels : ndarray of shape (n_chains, n_samples) or None
+        Over a mixture of module-2 draws, the draw that the chains sampled
+        with each theta (a draw of ``p(phi_k | theta, data)``); MCMC only.
     """
 
     method: str
@@ -220,6 +271,7 @@ class PosteriorResult:
     rhat: np.ndarray | None = None
     ess: np.ndarray | None = None
     log_density: np.ndarray | None = None
+    labels: np.ndarray | None = None
 
     def summary(self, seconds):
         """One line for the progress log: method, time, mean, sd, diagnostics."""
@@ -409,23 +461,33 @@ def _hessian(f, x, step):
     return H
 
 
-def _chain_starts(log_posterior, n_chains, rng):
+def _chain_starts(log_posterior, n_chains, rng, earlier=None):
     """Overdispersed starts around the mode, the mode and its Laplace covariance.
 
     The best of many prior draws, refined to the mode; the chains then start
-    around it with a Laplace proposal.
+    around it with a Laplace proposal. Over a mixture of module-2 draws,
+    the mode and its Laplace covariance are those of the global model at
+    the module-2 mode (``model.base``), K times cheaper to evaluate: they
+    only place the starts and the first proposal, which the burn-in adapts.
+    With ``earlier`` (draws of an earlier run on the same posterior, in user
+    units), the starts are around their mean and covariance instead, with
+    no mode search.
     """
-    candidates = log_posterior.prior.rvs(50 * n_chains, random_state=rng)
-    logp = log_posterior.log_density_u_batch(log_posterior.to_u(candidates))
-    order = np.argsort(logp)[::-1][:n_chains]
-    if not np.all(np.isfinite(logp[order])):
-        raise FactorizationError(
-            "Fewer than n_chains prior draws have a finite posterior: check "
-            "the prior's support against theta_sim."
-        )
-    mode, cov = laplace(
-        log_posterior.log_density_u, log_posterior.to_u(candidates[order[:2]])
-    )
+    if earlier is not None:
+        U = log_posterior.to_u(np.asarray(earlier, dtype=float))
+        mode, cov = U.mean(axis=0), np.atleast_2d(np.cov(U, rowvar=False))
+    else:
+        base = getattr(log_posterior.model, "base", None)
+        search = log_posterior if base is None else log_posterior.with_model(base)
+        candidates = search.prior.rvs(50 * n_chains, random_state=rng)
+        logp = search.log_density_u_batch(search.to_u(candidates))
+        order = np.argsort(logp)[::-1][:n_chains]
+        if not np.all(np.isfinite(logp[order])):
+            raise FactorizationError(
+                "Fewer than n_chains prior draws have a finite posterior: check "
+                "the prior's support against theta_sim."
+            )
+        mode, cov = laplace(search.log_density_u, search.to_u(candidates[order[:2]]))
     r = mode.size
     root = np.linalg.cholesky(cov + 1e-12 * np.trace(cov) * np.eye(r))
     starts = []
@@ -482,11 +544,10 @@ def _idle_weight(log_posterior, kept, samples):
     model = log_posterior.model
     left_out = np.setdiff1d(np.arange(len(model.models)), kept)
     step = max(1, len(samples) // _IDLE_CHECK_DRAWS)
-    weights = [
-        model.draw_weights(log_posterior.scaler.theta(t))[left_out]
-        for t in samples[::step]
-    ]
-    return float(np.max(weights))
+    thetas = log_posterior.scaler.theta(samples[::step])
+    values = model.batch_component_log_likelihoods(thetas)
+    weights = np.exp(values - special.logsumexp(values, axis=1, keepdims=True))
+    return float(np.max(weights[:, left_out]))
 
 
 def posterior_by_mcmc(
@@ -499,8 +560,12 @@ def posterior_by_mcmc(
     random_state=None,
     progress=None,
     check=True,
+    earlier=None,
 ):
     """Metropolis-Hastings chains on the sampling coordinates.
+
+    Over a mixture of module-2 draws, the chains sample theta and the draw
+    together (a labelled target, :mod:`skmba._chain`).
 
     Parameters
     ----------
@@ -514,7 +579,12 @@ def posterior_by_mcmc(
         Step lines (the start of the chains, each chain's acceptance) and
         the sampler's bar and detail lines; None is silent.
     check : bool, default=True
-        Warn about poor diagnostics (R-hat, ESS); off for a pilot run.
+        Warn about poor diagnostics (R-hat, ESS) and compute the log
+        posterior at the draws; both off for a pilot run (the first pass).
+    earlier : ndarray of shape (m, r), default=None
+        Draws of an earlier run on (nearly) the same posterior, in user
+        units (the propagated module 2's first pass): the chains start
+        around their moments, without a mode search.
 
     Returns
     -------
@@ -525,11 +595,15 @@ def posterior_by_mcmc(
     starts_seed, chains_seed = seed_sequence(random_state).spawn(2)
     rng = np.random.default_rng(starts_seed)
     started = time.perf_counter()
-    starts, mode, cov = _chain_starts(log_posterior, n_chains, rng)
+    starts, mode, cov = _chain_starts(log_posterior, n_chains, rng, earlier)
     r = starts.shape[1]
+    where = (
+        "starts from the first pass's draws"
+        if earlier is not None
+        else f"posterior mode found in {time.perf_counter() - started:.1f} s"
+    )
     say(
-        f"module 3: posterior mode found in {time.perf_counter() - started:.1f} "
-        f"s; running {n_chains} chain(s) of {burn_in} burn-in + "
+        f"module 3: {where}; running {n_chains} chain(s) of {burn_in} burn-in + "
         f"{n_samples} steps"
     )
     chain_posterior, kept = _without_idle_draws(log_posterior, mode, cov, starts)
@@ -549,6 +623,7 @@ def posterior_by_mcmc(
             blas_order=log_posterior.model.n * log_posterior.model.q,
             random_state=copy.deepcopy(chains_seed),
             progress=progress,
+            keep_log_density=check,
         )
 
     result = sample(chain_posterior)
@@ -563,6 +638,7 @@ def posterior_by_mcmc(
                 f"posterior draw; the chains run again over all {n_draws} draws"
             )
             result = sample(log_posterior)
+            kept = None
         else:
             say(
                 f"module 3: the chains used the {len(kept)} of {n_draws} "
@@ -575,9 +651,14 @@ def posterior_by_mcmc(
     on_theta = replace(result, samples=chains)
     # The chains' log density is of the sampling coordinates u: take off the
     # Jacobian of the log coordinates to get the log posterior of theta.
-    log_density = result.log_density - np.sum(
-        np.log(chains[..., log_posterior.log_dims]), axis=-1
-    )
+    labels = result.labels
+    if labels is not None and kept is not None:
+        labels = kept[labels]  # the indices of the draws in the whole mixture
+    log_density = None
+    if result.log_density is not None:
+        log_density = result.log_density - np.sum(
+            np.log(chains[..., log_posterior.log_dims]), axis=-1
+        )
     for c, chain in enumerate(chains):
         say(
             f"module 3: chain {c} done: acceptance {result.acceptance_rate[c]:.2f}"
@@ -593,4 +674,5 @@ def posterior_by_mcmc(
         rhat=on_theta.rhat,
         ess=on_theta.ess,
         log_density=log_density,
+        labels=labels,
     )

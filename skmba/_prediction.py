@@ -25,9 +25,15 @@ from dataclasses import dataclass
 
 import numpy as np
 from joblib import Parallel, delayed
-from scipy import linalg
+from scipy import linalg, special
 
-from skmba._linalg import FLOAT_BYTES, check_memory, n_workers, observed_rows
+from skmba._linalg import (
+    FLOAT_BYTES,
+    FactorizationError,
+    check_memory,
+    n_workers,
+    observed_rows,
+)
 from skmba._regression import regression_basis
 from skmba._threads import BlasTask
 from skmba._validation import seed_sequence
@@ -54,11 +60,13 @@ class PredictionRule:
     draws: np.ndarray | None = None  # module-2 draw per theta (a ModelMixture)
 
     @classmethod
-    def equal_weights(cls, samples, n_draws=_N_PREDICT_DRAWS):
-        """At most ``n_draws`` evenly thinned draws, equally weighted."""
+    def equal_weights(cls, samples, n_draws=_N_PREDICT_DRAWS, labels=None):
+        """At most ``n_draws`` evenly thinned draws, equally weighted, with
+        their module-2 draws ``labels`` (thinned alike) when given."""
         step = max(1, len(samples) // n_draws)
         thetas = samples[::step][:n_draws]
-        return cls(thetas, np.full(len(thetas), 1.0 / len(thetas)))
+        draws = None if labels is None else np.asarray(labels)[::step][:n_draws]
+        return cls(thetas, np.full(len(thetas), 1.0 / len(thetas)), draws)
 
     @classmethod
     def quadrature(cls, log_posterior, interval, n_nodes=_N_PREDICT_NODES):
@@ -75,24 +83,30 @@ class PredictionRule:
         return cls(nodes[:, None], v / v.sum())
 
 
-def prediction_rule(posterior, log_posterior, random_state=None):
+def prediction_rule(posterior, log_posterior, random_state=None, with_draws=True):
     """The module-4 rule of a :class:`~skmba._posterior.PosteriorResult`.
 
     Over a :class:`~skmba._mixture.ModelMixture`, each ``theta`` of the rule
     comes with the module-2 draws ``phi_k``: every draw with its weight
     ``p(phi_k | theta, data)`` for a quadrature rule (draws below 1e-4 of
-    their node's weight left out), one draw per ``theta`` picked with that
-    probability (systematic sampling, seeded by ``random_state``) for MCMC.
+    their node's weight left out); for MCMC, one draw per ``theta``: the
+    one the chains sampled with it (``posterior.labels``), else one picked
+    with that probability (systematic sampling, seeded by
+    ``random_state``). ``with_draws=False`` leaves them out (a rule that
+    only integrates over theta, as the propagated module 2's first pass).
     """
+    mixture = log_posterior.model
+    labels = getattr(posterior, "labels", None)
     if posterior.method == "quadrature":
         rule = PredictionRule.quadrature(log_posterior, posterior.interval)
+    elif labels is not None and with_draws:
+        return PredictionRule.equal_weights(posterior.samples, labels=labels.ravel())
     else:
         rule = PredictionRule.equal_weights(posterior.samples)
-    mixture = log_posterior.model
-    if not hasattr(mixture, "draw_weights"):
+    if not hasattr(mixture, "draw_weights") or not with_draws:
         return rule
     scaler = log_posterior.scaler
-    given = np.array([mixture.draw_weights(scaler.theta(t)) for t in rule.thetas])
+    given = _draw_weights(mixture, scaler.theta(rule.thetas))
     if posterior.method == "quadrature":
         keep = given >= 1e-4 * given.max(axis=1, keepdims=True)
         i, k = np.nonzero(keep)
@@ -103,8 +117,20 @@ def prediction_rule(posterior, log_posterior, random_state=None):
     cdf = np.cumsum(given, axis=1)
     picked = (cdf < rng.permutation(u)[:, None]).sum(axis=1)
     draws = np.minimum(picked, cdf.shape[1] - 1)
-    draws = np.minimum(picked, cdf.shape[1] - 1)
     return PredictionRule(rule.thetas, rule.weights, draws)
+
+
+def _draw_weights(mixture, thetas):
+    """``p(phi_k | theta, data)`` (m, K) at the rows of ``thetas``
+    (standardised), evaluated together; one by one (raising, saying why)
+    when some theta has no draw that can be evaluated."""
+    try:
+        values = mixture.batch_component_log_likelihoods(thetas)
+    except FactorizationError:
+        values = None
+    if values is None or not np.all(np.isfinite(values).any(axis=1)):
+        return np.array([mixture.draw_weights(t) for t in thetas])
+    return np.exp(values - special.logsumexp(values, axis=1, keepdims=True))
 
 
 def conditional_moments(model, theta, X, component, return_var=True):

@@ -57,8 +57,8 @@ class ChainResult:
     ----------
     samples : ndarray of shape (n_chains, n_samples, r)
         Draws kept after burn-in.
-    log_density : ndarray of shape (n_chains, n_samples)
-        ``log_density`` at each draw.
+    log_density : ndarray of shape (n_chains, n_samples) or None
+        ``log_density`` at each draw (None when not kept).
     acceptance_rate : ndarray of shape (n_chains,)
         Fraction of accepted proposals after burn-in.
     proposal_cov : ndarray of shape (n_chains, r, r)
@@ -68,6 +68,10 @@ class ChainResult:
         Fraction of accepted independence proposals after burn-in (NaN
         when the chain made none): near one where the independence
         proposal fits the target.
+    labels : ndarray of shape (n_chains, n_samples) or None
+        For a labelled target (a mixture, :mod:`skmba._chain`), the
+        component of each draw: a draw of ``p(k | theta)`` at the draw's
+        theta. None otherwise.
 
     Examples
     --------
@@ -82,10 +86,11 @@ class ChainResult:
     """
 
     samples: np.ndarray
-    log_density: np.ndarray
+    log_density: np.ndarray | None
     acceptance_rate: np.ndarray
     proposal_cov: np.ndarray
     independence_rate: np.ndarray | None = None
+    labels: np.ndarray | None = None
 
     @property
     def n_chains(self):
@@ -126,6 +131,7 @@ def run_chains(
     random_state=None,
     verbose=0,
     progress=None,
+    keep_log_density=True,
 ):
     """Run adaptive Metropolis-Hastings chains in parallel.
 
@@ -145,7 +151,10 @@ def run_chains(
         private to a chain under a thread-based joblib backend. A callable
         with a ``batch`` method (``batch(thetas) -> values``, ``thetas`` of
         shape (m, r), ``values`` of shape (m,)) gets the independence
-        proposals of a block in one call.
+        proposals of a block in one call. A callable with ``n_labels`` > 1
+        is a labelled target, a mixture sampled with its component
+        (:mod:`skmba._chain`); it also has ``labelled`` and ``components``
+        methods, and ``log_density`` of the result is the mixture's.
     starts : array_like of shape (n_chains, r)
         Starting point of each chain; each must have a finite log-density.
         Dispersed starts make :attr:`ChainResult.rhat` meaningful.
@@ -195,6 +204,10 @@ def run_chains(
     progress : skmba._progress.Progress, default=None
         Where to report, instead of ``Progress(verbose)`` (the estimators
         pass theirs, so that lines carry their name).
+    keep_log_density : bool, default=True
+        Return the log density at the draws; False saves, for a labelled
+        target, its evaluation at the distinct draws after sampling
+        (:attr:`ChainResult.log_density` is then None).
 
     Returns
     -------
@@ -244,11 +257,21 @@ def run_chains(
         n_jobs=n_jobs,
         blas_order=int(blas_order),
         progress=Progress(verbose) if progress is None else progress,
+        keep_log_density=bool(keep_log_density),
     )
 
 
 def _run_parallel(
-    chains, *, n_samples, burn_in, adapt, independence, n_jobs, blas_order, progress
+    chains,
+    *,
+    n_samples,
+    burn_in,
+    adapt,
+    independence,
+    n_jobs,
+    blas_order,
+    progress,
+    keep_log_density,
 ):
     """Run each chain's ``(log_density, start, start_value, chol, seed)``.
 
@@ -273,6 +296,8 @@ def _run_parallel(
                 adapt=adapt,
                 independence=independence,
                 chain=c,
+                n_labels=int(getattr(density, "n_labels", 1)),
+                keep_log_density=keep_log_density,
             )
         )
     total = burn_in + n_samples
@@ -301,10 +326,15 @@ def _run_parallel(
                 done[c] = state.steps
     return ChainResult(
         samples=np.stack([state.samples for state in states]),
-        log_density=np.stack([state.values for state in states]),
+        log_density=(
+            np.stack([state.values for state in states]) if keep_log_density else None
+        ),
         acceptance_rate=np.array([state.n_accept / n_samples for state in states]),
         proposal_cov=np.stack([state.chol @ state.chol.T for state in states]),
         independence_rate=np.array([state.independence_rate for state in states]),
+        labels=(
+            np.stack([state.labels for state in states]) if states[0].labelled else None
+        ),
     )
 
 

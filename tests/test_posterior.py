@@ -87,13 +87,22 @@ def test_chains_leave_out_idle_draws_and_run_again_when_they_matter(
     pruned = _two_parameter_fit(verbose=1)
     said = capsys.readouterr().err
     assert "module-2 draws with weight near the posterior" in said
-    # Over every draw: the draws left out weighed nothing, so the chains
-    # take the same path; round-off in the sums over draws moves the optima
-    # that set the second pass (module 2's mode, the chains' proposal) and
-    # with them the draws, by about 1e-7.
+    # The draws left out weigh nothing at the posterior draws: the log
+    # posterior the chains kept (over the draws kept) is the full one.
+    draws = pruned.theta_samples_[::7]
+    np.testing.assert_allclose(
+        pruned.theta_log_posterior_.ravel()[::7],
+        pruned.log_posterior(draws),
+        rtol=0,
+        atol=1e-6,
+    )
+    # Over every draw, the chains sample the same posterior (their paths
+    # differ: the labels of the draws left out are proposed too).
     monkeypatch.setattr(posterior, "_without_idle_draws", lambda lp, *args: (lp, None))
     every = _two_parameter_fit()
-    np.testing.assert_allclose(every.theta_samples_, pruned.theta_samples_, rtol=1e-6)
+    var = [np.diag(cal.theta_cov_) / cal.ess_ for cal in (every, pruned)]
+    se = np.sqrt(var[0] + var[1])
+    assert np.all(np.abs(every.theta_mean_ - pruned.theta_mean_) < 4 * se)
     # Should a draw left out weigh something at a posterior draw, the chains
     # run again over every draw.
     monkeypatch.undo()
@@ -117,3 +126,31 @@ def test_log_density_of_many_points_equals_one_at_a_time():
     assert batch[3] == batch[5] == -np.inf
     np.testing.assert_allclose(batch, each, rtol=1e-12)
     assert np.isfinite(batch).sum() == 18
+
+
+def test_module_2_draws_sampled_with_theta_follow_their_conditional_weights():
+    """Over the mixture of module-2 draws the chains sample (theta, k): each
+    label is a draw of p(phi_k | theta, data), so the labels' frequencies
+    match the mean of those probabilities at the draws (within 4 standard
+    errors), and module 4 predicts with the sampled labels."""
+    from skmba._posterior import posterior_by_mcmc
+    from skmba._prediction import prediction_rule
+
+    lp = _two_parameter_fit()._log_posterior
+    posterior = posterior_by_mcmc(
+        lp, n_chains=4, n_samples=500, burn_in=300, random_state=0, check=True
+    )
+    labels = posterior.labels.ravel()
+    K = len(lp.model.models)
+    assert labels.shape == (len(posterior.samples),) and labels.max() < K
+    thetas = lp.scaler.theta(posterior.samples[::4])
+    values = lp.model.batch_component_log_likelihoods(thetas)
+    weights = np.exp(values - np.logaddexp.reduce(values, axis=1)[:, None])
+    expected = weights.mean(axis=0)
+    share = np.bincount(labels, minlength=K) / len(labels)
+    se = np.sqrt(expected * (1 - expected) / np.min(posterior.ess)) + 1e-3
+    assert np.all(np.abs(share - expected) < 4 * se)
+    rule = prediction_rule(posterior, lp)
+    step = len(labels) // len(rule.draws)
+    np.testing.assert_array_equal(rule.draws, labels[::step][: len(rule.draws)])
+    np.testing.assert_array_equal(rule.thetas, posterior.samples[::step][:200])

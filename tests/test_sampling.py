@@ -504,3 +504,130 @@ def test_independence_must_be_a_probability_below_one(value, error, match):
             burn_in=0,
             independence=value,
         )
+
+
+class _GaussianMixture:
+    """A labelled target: ``p(theta, k) = w_k N(theta; m_k, C_k)``, three
+    overlapping components of different scales and shapes, as the posterior
+    of theta at different module-2 draws (``n_labels`` = 3)."""
+
+    n_labels = 3
+    weights = np.array([0.5, 0.3, 0.2])
+    means = np.array([[0.0, 0.0], [0.8, 0.3], [-0.5, 0.8]])
+    covs = np.array(
+        [[[1.0, 0.8], [0.8, 1.0]], [[0.3, 0.0], [0.0, 0.6]], [[3.0, -0.5], [-0.5, 2.0]]]
+    )
+
+    def __init__(self):
+        self.calls = {"labelled": 0, "components": 0, "batch": 0}
+
+    def _joint(self, thetas):
+        return np.column_stack(
+            [
+                np.log(w) + stats.multivariate_normal(m, c).logpdf(thetas)
+                for w, m, c in zip(self.weights, self.means, self.covs, strict=True)
+            ]
+        )
+
+    def __call__(self, theta):
+        return float(np.logaddexp.reduce(self._joint(theta[None, :])[0]))
+
+    def batch(self, thetas):
+        self.calls["batch"] += len(thetas)
+        return np.logaddexp.reduce(self._joint(thetas), axis=1)
+
+    def labelled(self, thetas, labels):
+        self.calls["labelled"] += len(thetas)
+        return self._joint(thetas)[np.arange(len(thetas)), labels]
+
+    def components(self, theta):
+        self.calls["components"] += 1
+        return self._joint(theta[None, :])[0]
+
+    def moments(self):
+        mean = self.weights @ self.means
+        second = sum(
+            w * (c + np.outer(m, m))
+            for w, m, c in zip(self.weights, self.means, self.covs, strict=True)
+        )
+        return mean, second - np.outer(mean, mean)
+
+
+@pytest.mark.parametrize("independence", [0.9, 0.0])
+def test_a_labelled_target_is_sampled_with_its_labels(independence):
+    """Theta and the label together (data augmentation): the draws of theta
+    follow the mixture, each label is a draw of ``p(k | theta)``, and the
+    stored log density is the mixture's. Without independence moves, Gibbs
+    updates of the label keep the chains moving between components."""
+    target = _GaussianMixture()
+    starts = np.random.default_rng(0).normal(size=(4, 2))
+    result = run_chains(
+        target,
+        starts,
+        n_samples=4000,
+        burn_in=1000,
+        independence=independence,
+        random_state=1,
+    )
+    mean, cov = target.moments()
+    draws = result.pooled
+    se = np.sqrt(np.diag(cov) / np.min(result.ess))
+    assert np.all(np.abs(draws.mean(axis=0) - mean) < 4 * se)
+    # Variances within 4 standard errors, var * sqrt((kurtosis - 1) / ESS)
+    # with the mixture's kurtosis about 5.
+    variances = np.diag(np.cov(draws.T))
+    assert np.all(
+        np.abs(variances - np.diag(cov)) < 4 * np.diag(cov) * np.sqrt(4 / result.ess)
+    )
+    # The labels: each a draw of p(k | theta), so their frequencies are the
+    # weights, and the draws of one label lie in its component.
+    labels = result.labels.ravel()
+    share = np.bincount(labels, minlength=3) / len(labels)
+    np.testing.assert_allclose(share, target.weights, atol=0.06)
+    np.testing.assert_allclose(
+        draws[labels == 1].mean(axis=0), target.means[1], atol=0.3
+    )
+    # The mixture's log density at the draws, not the joint one.
+    np.testing.assert_allclose(
+        result.log_density.ravel(), target.batch(draws), rtol=1e-12
+    )
+    assert np.all(result.rhat < 1.05)
+
+
+def test_a_labelled_target_costs_one_component_per_step():
+    target = _GaussianMixture()
+    starts = np.random.default_rng(0).normal(size=(2, 2))
+    run_chains(target, starts, n_samples=1000, burn_in=500, independence=0.9,
+               random_state=0)  # fmt: skip
+    # One joint density per step; the label's Gibbs updates once per burn-in
+    # block; the mixture at the distinct draws only.
+    assert target.calls["labelled"] <= 2 * 1500
+    assert target.calls["components"] == 2 * 10
+    assert target.calls["batch"] < 2 * 1000
+
+
+def test_labelled_chains_are_identical_for_any_n_jobs():
+    starts = np.random.default_rng(0).normal(size=(3, 2))
+    runs = [
+        run_chains(
+            _GaussianMixture(),
+            starts,
+            n_samples=300,
+            burn_in=200,
+            independence=0.9,
+            random_state=5,
+            n_jobs=n_jobs,
+        )
+        for n_jobs in (1, 2)
+    ]
+    np.testing.assert_array_equal(runs[0].samples, runs[1].samples)
+    np.testing.assert_array_equal(runs[0].labels, runs[1].labels)
+
+
+def test_labelled_chain_errors_name_the_method():
+    class Broken(_GaussianMixture):
+        def labelled(self, thetas, labels):
+            return np.full(len(thetas), np.nan)
+
+    with pytest.raises(RuntimeError, match=r"log_density\.labelled returned"):
+        run_chains(Broken(), np.zeros((1, 2)), n_samples=10, burn_in=10)
