@@ -47,8 +47,10 @@ Prints, from one run in one process:
     next to the 6.38 h the thesis reports for its Tamar bridge calibration.
     Target (issue 15): under 90 s, >= 1000 ESS and R-hat <= 1.01 per
     parameter. It runs with the thesis' plug-in module 2: under the
-    default, each theta factors one 1200 x 1200 field block per module-2
-    draw; (b) prints the cost per theta of one draw.
+    default the chains factor one 1200 x 1200 field block per step (theta
+    is sampled with its module-2 draw), but the log posterior at the
+    distinct draws, and module 2's search over the hyperparameters, still
+    factor one per module-2 draw; (b) prints the cost per theta of one.
 
 BLAS threads are left as they are (the number of CPUs and of BLAS threads is
 printed); note that ``fit`` itself limits BLAS to one thread during the MCMC,

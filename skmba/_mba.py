@@ -371,6 +371,7 @@ def _module3(
             random_state=seed,
             progress=progress,
             check=not first_pass,
+            joint=first_pass,
             earlier=(
                 earlier.samples
                 if earlier is not None and earlier.method == "mcmc"

@@ -205,16 +205,16 @@ class LogPosterior:
 class _ChainTarget:
     """Log density of the MCMC coordinates for one chain (picklable).
 
-    Over a mixture of module-2 draws, the chain samples theta and the draw
-    together (:mod:`skmba._chain`, labelled targets): ``n_labels`` draws,
-    the joint density of a theta and a draw (:meth:`labelled`) and of a
-    theta and every draw (:meth:`components`).
+    With ``joint`` over a mixture of module-2 draws, the chain samples theta
+    and the draw together (:mod:`skmba._chain`, labelled targets):
+    ``n_labels`` draws, the joint density of a theta and a draw
+    (:meth:`labelled`) and of a theta and every draw (:meth:`components`).
     """
 
-    def __init__(self, log_posterior):
+    def __init__(self, log_posterior, joint=False):
         self.log_posterior = log_posterior.with_own_cache()
         models = getattr(log_posterior.model, "models", None)
-        self.n_labels = 1 if models is None else len(models)
+        self.n_labels = len(models) if joint and models is not None else 1
 
     def __call__(self, u):
         return self.log_posterior.log_density_u(u)
@@ -561,11 +561,9 @@ def posterior_by_mcmc(
     progress=None,
     check=True,
     earlier=None,
+    joint=False,
 ):
     """Metropolis-Hastings chains on the sampling coordinates.
-
-    Over a mixture of module-2 draws, the chains sample theta and the draw
-    together (a labelled target, :mod:`skmba._chain`).
 
     Parameters
     ----------
@@ -585,6 +583,13 @@ def posterior_by_mcmc(
         Draws of an earlier run on (nearly) the same posterior, in user
         units (the propagated module 2's first pass): the chains start
         around their moments, without a mode search.
+    joint : bool, default=False
+        Over a mixture of module-2 draws, sample theta with the draw (a
+        labelled target, :mod:`skmba._chain`): one draw's likelihood per
+        step instead of all, but slow to mix where ``p(phi_k | theta,
+        data)`` changes over the posterior; chains whose burn-in shows it
+        fall back to the mixture. For the propagated module 2's first
+        pass, which only locates the posterior.
 
     Returns
     -------
@@ -612,7 +617,7 @@ def posterior_by_mcmc(
         # A copy: spawning the chains' seeds advances a SeedSequence, and a
         # second run must draw what the first drew.
         return run_chains(
-            [_ChainTarget(target) for _ in range(n_chains)],
+            [_ChainTarget(target, joint) for _ in range(n_chains)],
             starts,
             n_samples=n_samples,
             burn_in=burn_in,

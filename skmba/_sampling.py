@@ -333,7 +333,9 @@ def _run_parallel(
         proposal_cov=np.stack([state.chol @ state.chol.T for state in states]),
         independence_rate=np.array([state.independence_rate for state in states]),
         labels=(
-            np.stack([state.labels for state in states]) if states[0].labelled else None
+            np.stack([state.labels for state in states])
+            if all(state.labelled for state in states)
+            else None
         ),
     )
 

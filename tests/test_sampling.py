@@ -594,8 +594,17 @@ def test_a_labelled_target_is_sampled_with_its_labels(independence):
     assert np.all(result.rhat < 1.05)
 
 
+class _SameShapeMixture(_GaussianMixture):
+    """Three components of one shape: ``p(k | theta)`` is the weights
+    whatever theta, where a joint chain mixes as well as the mixture's (as
+    the calibrator's module-2 draws on 4.7.3)."""
+
+    means = np.zeros((3, 2))
+    covs = np.array([[[1.0, 0.8], [0.8, 1.0]]] * 3)
+
+
 def test_a_labelled_target_costs_one_component_per_step():
-    target = _GaussianMixture()
+    target = _SameShapeMixture()
     starts = np.random.default_rng(0).normal(size=(2, 2))
     run_chains(target, starts, n_samples=1000, burn_in=500, independence=0.9,
                random_state=0)  # fmt: skip
@@ -604,6 +613,10 @@ def test_a_labelled_target_costs_one_component_per_step():
     assert target.calls["labelled"] <= 2 * 1500
     assert target.calls["components"] == 2 * 10
     assert target.calls["batch"] < 2 * 1000
+    # Labels independent of theta: the joint chains never fall back.
+    result = run_chains(target, starts, n_samples=1000, burn_in=500,
+                        independence=0.9, random_state=0)  # fmt: skip
+    assert result.labels is not None
 
 
 def test_labelled_chains_are_identical_for_any_n_jobs():
@@ -631,3 +644,42 @@ def test_labelled_chain_errors_name_the_method():
 
     with pytest.raises(RuntimeError, match=r"log_density\.labelled returned"):
         run_chains(Broken(), np.zeros((1, 2)), n_samples=10, burn_in=10)
+
+
+class _ShiftedMixture(_GaussianMixture):
+    """Two components whose label ``p(k | theta)`` depends strongly on
+    theta (their means differ): a joint chain mixes poorly here."""
+
+    n_labels = 2
+    weights = np.array([0.5, 0.5])
+    means = np.array([[-1.2, 0.0], [1.2, 0.0]])
+    covs = np.array([[[0.3, 0.0], [0.0, 1.0]]] * 2)
+
+
+def test_a_joint_chain_that_mixes_poorly_falls_back_to_the_mixture():
+    from skmba._chain import _JOINT_MIN_ACCEPTANCE, _JOINT_MIN_MOVES, Chain
+
+    target = _ShiftedMixture()
+    chain = Chain(np.zeros(2), target(np.zeros(2)), np.eye(2), 0, n_samples=10,
+                  burn_in=100, adapt=True, chain=0, n_labels=2)  # fmt: skip
+    chain.advance(target, 50)  # the label is drawn: a joint chain
+    assert chain.labelled and chain.logp == target.components(chain.theta)[chain.label]
+    moves = _JOINT_MIN_MOVES
+    chain.burn_independent[:] = moves, int(_JOINT_MIN_ACCEPTANCE * moves)
+    chain._check_joint(target)
+    assert chain.labelled  # accepted often enough: stays joint
+    chain.burn_independent[:] = moves, int(_JOINT_MIN_ACCEPTANCE * moves) - 1
+    chain._check_joint(target)
+    assert not chain.labelled and chain.label is None
+    assert chain.logp == target(chain.theta)  # the mixture's density now
+    # A run where some chains fall back: no labels, the mixture's moments.
+    result = run_chains(target, np.random.default_rng(0).normal(size=(4, 2)),
+                        n_samples=4000, burn_in=1000, independence=0.9,
+                        random_state=2)  # fmt: skip
+    assert result.labels is None
+    mean, cov = target.moments()
+    se = np.sqrt(np.diag(cov) / np.min(result.ess))
+    assert np.all(np.abs(result.pooled.mean(axis=0) - mean) < 4 * se)
+    np.testing.assert_allclose(
+        result.log_density.ravel(), target.batch(result.pooled), rtol=1e-12
+    )
