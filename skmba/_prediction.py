@@ -60,13 +60,11 @@ class PredictionRule:
     draws: np.ndarray | None = None  # module-2 draw per theta (a ModelMixture)
 
     @classmethod
-    def equal_weights(cls, samples, n_draws=_N_PREDICT_DRAWS, labels=None):
-        """At most ``n_draws`` evenly thinned draws, equally weighted, with
-        their module-2 draws ``labels`` (thinned alike) when given."""
+    def equal_weights(cls, samples, n_draws=_N_PREDICT_DRAWS):
+        """At most ``n_draws`` evenly thinned draws, equally weighted."""
         step = max(1, len(samples) // n_draws)
         thetas = samples[::step][:n_draws]
-        draws = None if labels is None else np.asarray(labels)[::step][:n_draws]
-        return cls(thetas, np.full(len(thetas), 1.0 / len(thetas)), draws)
+        return cls(thetas, np.full(len(thetas), 1.0 / len(thetas)))
 
     @classmethod
     def quadrature(cls, log_posterior, interval, n_nodes=_N_PREDICT_NODES):
@@ -89,18 +87,14 @@ def prediction_rule(posterior, log_posterior, random_state=None, with_draws=True
     Over a :class:`~skmba._mixture.ModelMixture`, each ``theta`` of the rule
     comes with the module-2 draws ``phi_k``: every draw with its weight
     ``p(phi_k | theta, data)`` for a quadrature rule (draws below 1e-4 of
-    their node's weight left out); for MCMC, one draw per ``theta``: the
-    one the chains sampled with it (``posterior.labels``), else one picked
-    with that probability (systematic sampling, seeded by
-    ``random_state``). ``with_draws=False`` leaves them out (a rule that
-    only integrates over theta, as the propagated module 2's first pass).
+    their node's weight left out), one draw per ``theta`` picked with that
+    probability (systematic sampling, seeded by ``random_state``) for MCMC.
+    ``with_draws=False`` leaves them out (a rule that only integrates over
+    theta, as the propagated module 2's first pass).
     """
     mixture = log_posterior.model
-    labels = getattr(posterior, "labels", None)
     if posterior.method == "quadrature":
         rule = PredictionRule.quadrature(log_posterior, posterior.interval)
-    elif labels is not None and with_draws:
-        return PredictionRule.equal_weights(posterior.samples, labels=labels.ravel())
     else:
         rule = PredictionRule.equal_weights(posterior.samples)
     if not hasattr(mixture, "draw_weights") or not with_draws:
