@@ -138,6 +138,6 @@ def field_order(y):
     if y is None:
         return 0
     try:
-        return int(np.asarray(y, dtype=float).size)
+        return int(np.asarray(y).size)  # no cast: complex y warns if cast
     except (TypeError, ValueError):
         return 0
