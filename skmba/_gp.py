@@ -25,6 +25,7 @@ from sklearn.base import BaseEstimator, MultiOutputMixin, RegressorMixin, clone
 from sklearn.gaussian_process.kernels import Kernel
 from sklearn.utils.validation import check_is_fitted, validate_data
 
+from skmba._dace import DACECorrelation
 from skmba._gp_checks import (
     check_covariance_size,
     check_magnitudes,
@@ -53,7 +54,7 @@ from skmba._validation import (
     random_state_instance,
     validate_parameter_table,
 )
-from skmba.kernels import Gauss, _DACECorrelation, check_correlation
+from skmba.kernels import Gauss, check_correlation
 
 # Mean and standard deviation are predicted in batches of points whose
 # cross-correlations with the training points (and the few arrays of that
@@ -429,7 +430,7 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
             "Fit on fewer samples (e.g. a space-filling subset of the "
             "simulations) or use a machine with more memory."
         )
-        if isinstance(kernel, _DACECorrelation):
+        if isinstance(kernel, DACECorrelation):
             n_arrays = _FIT_ARRAYS
             gradient = "its gradient (one hyperparameter at a time)"
         else:

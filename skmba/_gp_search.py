@@ -35,6 +35,7 @@ import numpy as np
 from scipy import optimize
 from sklearn.exceptions import ConvergenceWarning
 
+from skmba._dace import DACECorrelation
 from skmba._likelihood import (
     R_REMEDY,
     R_WHAT,
@@ -43,7 +44,6 @@ from skmba._likelihood import (
 )
 from skmba._linalg import FactorizationError, smallest_pivot
 from skmba._validation import random_state_instance
-from skmba.kernels import _DACECorrelation
 
 # Noise variances, relative to each response's variance, and tau (noise to
 # signal ratio of the proportional-noise start) stay within these log bounds.
@@ -89,7 +89,7 @@ def correlation(kernel, X, nugget, eval_gradient):
     (N, N, n_theta) array is allocated; other kernels give sklearn's
     stacked gradient.
     """
-    if isinstance(kernel, _DACECorrelation):
+    if isinstance(kernel, DACECorrelation):
         R = kernel._correlation(X, X)
         dR = None
         if eval_gradient:

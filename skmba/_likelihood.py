@@ -64,7 +64,7 @@ class GradientContraction:
     for a symmetric (N, N) ``weight``, which is all the likelihood
     gradients need (``tr(W dR_k)``), without the stacked (N, N, n_dims)
     array: the DACE kernels compute it one hyperparameter at a time
-    (:meth:`skmba.kernels._DACECorrelation._weighted_log_gradient`).
+    (:meth:`skmba._dace.DACECorrelation._weighted_log_gradient`).
 
     Parameters
     ----------
