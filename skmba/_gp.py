@@ -25,9 +25,9 @@ from sklearn.base import BaseEstimator, MultiOutputMixin, RegressorMixin, clone
 from sklearn.gaussian_process.kernels import Kernel
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from skmba._dace import DACECorrelation
 from skmba._gp_checks import (
     check_covariance_size,
+    check_fit_memory,
     check_magnitudes,
     check_rows,
     check_sample_size,
@@ -62,12 +62,6 @@ from skmba.kernels import Gauss, check_correlation
 # bytes.
 _PREDICT_BATCH_BYTES = 2**28
 _PREDICT_ARRAYS = 6
-# N x N float arrays alive at once in one likelihood and gradient evaluation
-# with a DACE kernel (R, its Cholesky factor, R^-1 and its triangular
-# copies, the gradient's weight and the kernel's per-dimension temporaries:
-# 8 to 11 measured with tracemalloc at N=600, d=4 for Gauss to Spline),
-# for the memory check of fit; other kernels add their stacked gradient.
-_FIT_ARRAYS = 12
 
 
 def default_kernel(X):
@@ -352,7 +346,7 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
         check_rows(X, Y, H, self.regression, self.noise)
         kernel = default_kernel(X) if self.kernel is None else clone(self.kernel)
         check_correlation(kernel, X)
-        self._check_fit_memory(kernel, n, d)
+        check_fit_memory(kernel, n, self.noise)
         self.X_train_ = X
         self._H = H
         self.nugget_ = float(self.alpha)
@@ -416,38 +410,6 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
         X = X.astype(float, copy=False)
         self._y_ndim = y.ndim
         return X, np.asarray(y, dtype=float).reshape(len(y), -1)
-
-    def _check_fit_memory(self, kernel, n, d):
-        """MemoryError before allocating the N x N matrices that do not fit.
-
-        The DACE kernels contract the likelihood gradient one hyperparameter
-        at a time (a fixed number of N x N arrays); other kernels return the
-        stacked (N, N, n_theta) gradient, copied once more when the log noise
-        ratio of a noisy fit is appended.
-        """
-        n_hyper = kernel.n_dims + int(self.noise)
-        remedy = (
-            "Fit on fewer samples (e.g. a space-filling subset of the "
-            "simulations) or use a machine with more memory."
-        )
-        if isinstance(kernel, DACECorrelation):
-            n_arrays = _FIT_ARRAYS
-            gradient = "its gradient (one hyperparameter at a time)"
-        else:
-            n_arrays = 2 * n_hyper + _FIT_ARRAYS
-            gradient = f"its stacked gradient for {n_hyper} hyperparameter(s)"
-            remedy = (
-                "Use a kernel of skmba.kernels (e.g. Gauss or Exp, whose "
-                f"gradient needs no {n} x {n} x {n_hyper} array), fit on fewer "
-                "samples (e.g. a space-filling subset of the simulations) or use "
-                "a machine with more memory."
-            )
-        check_memory(
-            8.0 * n * n * n_arrays,
-            f"Fitting MultiResponseGP to {n} samples (the {n} x {n} correlation "
-            f"matrix, {gradient} and the factorisation workspace)",
-            remedy,
-        )
 
     def _standardise(self, Y):
         """The active responses of ``Y`` in internal units (Appendix C.2).
