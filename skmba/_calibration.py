@@ -20,9 +20,7 @@ from typing import ClassVar
 import numpy as np
 from sklearn.base import BaseEstimator, MultiOutputMixin, RegressorMixin
 from sklearn.gaussian_process.kernels import Kernel
-from sklearn.metrics import r2_score
 from sklearn.utils.validation import (
-    check_array,
     check_consistent_length,
     check_is_fitted,
     validate_data,
@@ -32,8 +30,10 @@ from skmba._columns import column_names, match_columns
 from skmba._discrepancy import DISCREPANCY_OPTIMIZERS
 from skmba._field_data import (
     check_field_data,
+    checked_field_y,
     field_order,
     measured_field_data,
+    measured_r2,
     warn_few_distinct_inputs,
 )
 from skmba._identifiability import warn_if_confounded
@@ -64,6 +64,7 @@ from skmba._simulations import (
     check_response_ranges,
     check_simulation_design,
     given_simulations,
+    keep_simulator_runs,
 )
 from skmba._summary import (
     calibration_table,
@@ -454,17 +455,7 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
             with blas_threads(field_order(y)):
                 fitted = self._fit(X, y, X_sim, theta_sim, y_sim, partial)
         except Exception as exc:
-            sims = partial.get("simulations")
-            if sims is not None and sims.n_simulator_runs:
-                self.X_sim_, self.theta_sim_, self.y_sim_ = sims.X, sims.theta, sims.y
-                exc.add_note(
-                    f"The {sims.n_simulator_runs} simulator runs of this fit are "
-                    "kept in X_sim_, theta_sim_ and y_sim_ (with any precomputed "
-                    "simulations): after fixing the problem, call "
-                    "set_params(simulator=None) and fit(X, y, X_sim=X_sim_, "
-                    "theta_sim=theta_sim_, y_sim=y_sim_) so as not to run the "
-                    "simulator again."
-                )
+            keep_simulator_runs(self, partial.get("simulations"), exc)
             raise
         self._set_fitted(fitted)
         warn_if_confounded(self.identifiability_, self.parameter_names_)
@@ -477,18 +468,7 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         responses = column_names(y)
         X = validate_data(self, X)
         # NaN in y is a reading not taken; scikit-learn's y check rejects it.
-        if y is None:
-            raise ValueError(
-                "ModularBayesCalibrator requires y to be passed, but the target y "
-                "is None: pass the field observations."
-            )
-        y = check_array(
-            y,
-            ensure_2d=False,
-            dtype=float,
-            ensure_all_finite="allow-nan",
-            input_name="y",
-        )
+        y = checked_field_y(y)
         check_consistent_length(X, y)
         # Tables of simulations are matched to the field data and the prior
         # by their column names (arrays by position).
@@ -692,23 +672,9 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         -------
         float
         """
-        y = check_array(
-            y,
-            ensure_2d=False,
-            dtype=float,
-            ensure_all_finite="allow-nan",
-            input_name="y",
-        )
+        y = checked_field_y(y)
         pred = np.asarray(self.predict(X), dtype=float).reshape(len(y), -1)
-        Y = y.reshape(len(y), -1)
-        w = None if sample_weight is None else np.asarray(sample_weight, dtype=float)
-        scores = []
-        for j in range(Y.shape[1]):
-            m = np.isfinite(Y[:, j])
-            scores.append(
-                r2_score(Y[m, j], pred[m, j], sample_weight=None if w is None else w[m])
-            )
-        return float(np.mean(scores))
+        return measured_r2(y.reshape(len(y), -1), pred, sample_weight)
 
     def predict_reality(self, X, return_std=False):
         """Prediction of the true process ``y_m(x, theta) + delta(x)`` (no noise)."""

@@ -18,6 +18,8 @@ ValueError: X and y have 3 and 2 rows: y must hold one row of observed responses
 import warnings
 
 import numpy as np
+from sklearn.metrics import r2_score
+from sklearn.utils import check_array
 
 from skmba._regression import n_regression_terms
 from skmba._simulations import as_array, check_2d, check_finite_rows
@@ -123,6 +125,51 @@ def warn_few_distinct_inputs(X, discrepancy_regression):
             UserWarning,
             stacklevel=4,
         )
+
+
+def checked_field_y(y):
+    """The field observations ``y`` as a float array, NaN allowed (a reading
+    not taken), after scikit-learn's checks of everything else.
+
+    Raises
+    ------
+    ValueError
+        When ``y`` is None, or not finite where it is not NaN.
+
+    Examples
+    --------
+    >>> checked_field_y([1.0, float("nan")]).tolist()
+    [1.0, nan]
+    """
+    if y is None:
+        raise ValueError(
+            "ModularBayesCalibrator requires y to be passed, but the target y "
+            "is None: pass the field observations."
+        )
+    return check_array(
+        y, ensure_2d=False, dtype=float, ensure_all_finite="allow-nan", input_name="y"
+    )
+
+
+def measured_r2(Y, pred, sample_weight=None):
+    """scikit-learn's R² averaged uniformly over the columns of ``Y`` (s, q),
+    each over its measured (finite) entries only.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> Y = np.array([[1.0, 2.0], [2.0, np.nan], [3.0, 4.0]])
+    >>> measured_r2(Y, np.array([[1.0, 2.0], [2.0, 9.0], [3.0, 4.0]]))
+    1.0
+    """
+    w = None if sample_weight is None else np.asarray(sample_weight, dtype=float)
+    scores = []
+    for j in range(Y.shape[1]):
+        m = np.isfinite(Y[:, j])
+        scores.append(
+            r2_score(Y[m, j], pred[m, j], sample_weight=None if w is None else w[m])
+        )
+    return float(np.mean(scores))
 
 
 def field_order(y):

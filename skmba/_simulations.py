@@ -485,6 +485,26 @@ def collect_simulations(simulator, X, q, prior, given, n_runs, seed, progress=No
     )
 
 
+def keep_simulator_runs(est, sims, exc):
+    """After a failed fit, keep its simulator runs on the estimator.
+
+    ``X_sim_``, ``theta_sim_`` and ``y_sim_`` get ``sims`` (the fit's
+    :class:`Simulations`, None when it did not get that far) when the
+    simulator ran, and ``exc`` a note saying how to refit without running
+    it again.
+    """
+    if sims is None or not sims.n_simulator_runs:
+        return
+    est.X_sim_, est.theta_sim_, est.y_sim_ = sims.X, sims.theta, sims.y
+    exc.add_note(
+        f"The {sims.n_simulator_runs} simulator runs of this fit are kept in "
+        "X_sim_, theta_sim_ and y_sim_ (with any precomputed simulations): "
+        "after fixing the problem, call set_params(simulator=None) and "
+        "fit(X, y, X_sim=X_sim_, theta_sim=theta_sim_, y_sim=y_sim_) so as "
+        "not to run the simulator again."
+    )
+
+
 def _exception_text(exc):
     return f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
 
