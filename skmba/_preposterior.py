@@ -293,6 +293,31 @@ def _fit_module2_draws(ctx, rep, responses):
     return hyperposterior(integrated.restrict(idx), second)
 
 
+def warn_replicate_problems(replicates, stacklevel=2):
+    """Warn about the replicates' module-2 fits that did not fully converge
+    and the second-pass covariances that needed a jitter (their counts)."""
+    unconverged = sum(rep.n_unconverged for rep in replicates)
+    if unconverged:
+        warnings.warn(
+            f"{unconverged} module-2 likelihood maximisations of the "
+            f"{len(replicates)} replicates did not fully converge; their "
+            "estimates are used as they are. More restarts (calibrator "
+            "n_restarts_optimizer) make them more robust.",
+            ConvergenceWarning,
+            stacklevel=stacklevel,
+        )
+    repaired = sum(rep.n_repaired for rep in replicates)
+    if repaired:
+        warnings.warn(
+            f"{repaired} posterior-integrated emulator covariances of the "
+            "second module-2 pass (discrepancy_uncertainty='propagate') "
+            "were not positive definite and got a jitter, usually a "
+            "round-off effect of a narrow posterior of theta.",
+            UserWarning,
+            stacklevel=stacklevel,
+        )
+
+
 def _embedded(sigma2_d, noise, subset, q):
     """A subset's discrepancy covariance and noise in ``q x q`` arrays."""
     full = np.zeros((q, q))

@@ -26,14 +26,12 @@ differences between subsets are not Monte Carlo noise.
 """
 
 import time
-import warnings
 from typing import ClassVar
 
 import numpy as np
 from joblib import Parallel, delayed
 from scipy import stats
 from sklearn.base import BaseEstimator, clone
-from sklearn.exceptions import ConvergenceWarning
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from skmba._calibration import ModularBayesCalibrator
@@ -56,6 +54,7 @@ from skmba._preposterior import (
     criterion_value,
     draw_replicate,
     subset_moments,
+    warn_replicate_problems,
 )
 from skmba._progress import Progress, results_as_ready
 from skmba._search import all_subsets, check_max_size, genetic, greedy_forward
@@ -479,26 +478,7 @@ class PreposteriorDesigner(BaseEstimator):
         self._set_fitted(
             results, replicates, prior, prior_cov, q, X_design, emulator.gp, names
         )
-        unconverged = sum(rep.n_unconverged for rep in replicates)
-        if unconverged:
-            warnings.warn(
-                f"{unconverged} module-2 likelihood maximisations of the "
-                f"{self.n_mc} replicates did not fully converge; their estimates "
-                "are used as they are. More restarts (calibrator "
-                "n_restarts_optimizer) make them more robust.",
-                ConvergenceWarning,
-                stacklevel=3,
-            )
-        repaired = sum(rep.n_repaired for rep in replicates)
-        if repaired:
-            warnings.warn(
-                f"{repaired} posterior-integrated emulator covariances of the "
-                "second module-2 pass (discrepancy_uncertainty='propagate') "
-                "were not positive definite and got a jitter, usually a "
-                "round-off effect of a narrow posterior of theta.",
-                UserWarning,
-                stacklevel=3,
-            )
+        warn_replicate_problems(replicates, stacklevel=4)
         self._log(f"done: best subset {self.best_subset_}", started)
         return self
 
