@@ -84,6 +84,28 @@ gave an ESS of 455 on 4.7.3: the chains visit few labels in a window. The
 target provides ``labelled(thetas, labels) -> values`` (the joint log
 densities), ``components(theta) -> values`` (of shape (n_labels,)) and
 ``batch`` (the mixture's).
+
+Examples
+--------
+One chain on a standard normal, advanced in two segments (as
+:func:`skmba._sampling.run_chains` does with a progress bar): the draws
+are those of one run.
+
+>>> import numpy as np
+>>> from skmba._chain import Chain
+>>> def log_density(theta):
+...     return -0.5 * float(theta @ theta)
+>>> def run(segments):
+...     chain = Chain(np.zeros(2), 0.0, np.eye(2), 0, n_samples=400,
+...                   burn_in=200, adapt=True, chain=0, independence=0.9)
+...     for until in segments:
+...         chain.advance(log_density, until)
+...     return chain
+>>> one, two = run([600]), run([250, 600])
+>>> bool(np.array_equal(one.samples, two.samples))
+True
+>>> bool(0.5 < one.independence_rate <= 1.0)
+True
 """
 
 import math
