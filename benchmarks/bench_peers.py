@@ -84,16 +84,20 @@ only: ``pip install surmise``; without it the script says so and exits.
 """
 
 import argparse
+import sys
 import time
 import warnings
+from pathlib import Path
 
 import numpy as np
 import threadpoolctl
 
-from skmba import ModularBayesCalibrator
 from skmba._diagnostics import ess_bulk, split_rhat
 from skmba._threads import describe_threads
 from skmba.datasets import make_cantilever
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_calibration import fit_cantilever
 
 try:
     import surmise
@@ -143,23 +147,8 @@ def summarise(name, seconds, chains, acceptance, caught, extra=()):
 
 # ---------------------------------------------------------------- skmba
 def run_skmba(data, discrepancy_uncertainty, n_samples, burn_in):
-    cal = ModularBayesCalibrator(
-        prior=data.prior,
-        n_chains=4,
-        n_samples=n_samples,
-        burn_in=burn_in,
-        discrepancy_uncertainty=discrepancy_uncertainty,
-        n_jobs=-1,
-        random_state=0,
-    )
-    seconds, _, caught = recording_warnings(
-        lambda: cal.fit(
-            data.X_obs,
-            data.y_obs,
-            X_sim=data.X_sim,
-            theta_sim=data.theta_sim,
-            y_sim=data.y_sim,
-        )
+    cal, seconds, caught = fit_cantilever(
+        data, n_samples, burn_in, discrepancy_uncertainty, n_jobs=-1
     )
     name = f'skmba, discrepancy_uncertainty="{discrepancy_uncertainty}"'
     return summarise(
