@@ -75,33 +75,44 @@ def criterion_value(cov, prior_cov, criterion):
 
     Parameters
     ----------
-    cov : ndarray of shape (r, r)
-        The (preposterior) covariance of ``theta`` to score.
+    cov : ndarray of shape (r, r) or (..., r, r)
+        The (preposterior) covariance of ``theta`` to score, or a stack of
+        them (scored at once: the designer scores every subset's running
+        and left-one-out means).
     prior_cov : ndarray of shape (r, r)
         The prior covariance of ``theta``, in the units of ``cov``.
     criterion : {"trace", "det", "max_eig"}
 
     Returns
     -------
-    float
+    float, or ndarray of shape (...) for a stack
     """
     prior_cov = np.atleast_2d(np.asarray(prior_cov, dtype=float))
+    r = len(prior_cov)
+    cov = np.asarray(cov, dtype=float)
+    single = cov.ndim <= 2
+    stack = cov.reshape(-1, r, r)
     sd = np.sqrt(np.diag(prior_cov))
     scale = np.outer(sd, sd)
-    scaled = np.atleast_2d(cov) / scale
     correlation = prior_cov / scale
     # Exactly 1 on the diagonal: an independent prior whitens by the
     # identity, which leaves the scaled covariance bit for bit.
     np.fill_diagonal(correlation, 1.0)
     L = np.linalg.cholesky(correlation)
-    half = solve_triangular(L, scaled, lower=True)  # L^-1 C
-    S = solve_triangular(L, half.T, lower=True).T  # L^-1 C L^-T
-    r = len(S)
+
+    def whiten_rows(A):  # L^-1 A for every A of the stack, one solve
+        columns = solve_triangular(L, A.transpose(1, 0, 2).reshape(r, -1), lower=True)
+        return columns.reshape(r, len(A), r).transpose(1, 0, 2)
+
+    half = whiten_rows(stack / scale)  # L^-1 C
+    S = whiten_rows(half.transpose(0, 2, 1)).transpose(0, 2, 1)  # L^-1 C L^-T
     if criterion == "trace":
-        return float(np.trace(S)) / r
-    if criterion == "det":
-        return float(max(np.linalg.det(S), 0.0) ** (1.0 / r))
-    return float(np.linalg.eigvalsh(S)[-1])
+        values = np.trace(S, axis1=1, axis2=2) / r
+    elif criterion == "det":
+        values = np.maximum(np.linalg.det(S), 0.0) ** (1.0 / r)
+    else:
+        values = np.linalg.eigvalsh(S)[:, -1]
+    return float(values[0]) if single else values.reshape(cov.shape[:-2])
 
 
 class MonteCarloContext:

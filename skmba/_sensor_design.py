@@ -570,10 +570,8 @@ class PreposteriorDesigner(BaseEstimator):
                     f"scored {len(results)} subsets "
                     f"({time.perf_counter() - started:.1f} s)"
                 )
-            return [
-                criterion_value(results[s][1].mean(axis=0), prior_cov, self.criterion)
-                for s in subsets
-            ]
+            means = np.array([results[s][1].mean(axis=0) for s in subsets])
+            return criterion_value(means, prior_cov, self.criterion).tolist()
 
         with bar:
             if exhaustive is not None:
@@ -613,19 +611,17 @@ class PreposteriorDesigner(BaseEstimator):
         self.theta_draws_ = theta_draws
         self.subsets_ = subsets
         self.preposterior_cov_ = covs.mean(axis=1)
-        self.scores_ = np.array([score(c) for c in self.preposterior_cov_])
+        self.scores_ = score(self.preposterior_cov_)
         self.scores_mcse_ = jackknife_mcse(covs, score)
         running = np.cumsum(covs, axis=1) / np.arange(1, self.n_mc + 1)[:, None, None]
-        self.convergence_ = np.array(
-            [[score(c) for c in per_subset] for per_subset in running]
-        ).T
+        self.convergence_ = score(running).T
         self.expected_error_ = np.sqrt(
             np.mean((means - theta_draws[None]) ** 2, axis=1)
         )
         self.best_subset_ = subsets[int(np.argmin(self.scores_))]
         self.support_ = np.zeros(q, dtype=bool)
         self.support_[list(self.best_subset_)] = True
-        single = np.array([score(results[(j,)][1].mean(axis=0)) for j in range(q)])
+        single = score(np.array([results[(j,)][1].mean(axis=0) for j in range(q)]))
         self.ranking_ = stats.rankdata(single, method="min").astype(int)
 
     def _progress(self):

@@ -24,7 +24,7 @@ Examples
 >>> import numpy as np
 >>> from skmba._summary import jackknife_mcse
 >>> covs = np.array([[[[1.0]], [[3.0]]]])  # 1 subset, 2 replicates, r = 1
->>> jackknife_mcse(covs, lambda cov: float(np.trace(cov)))
+>>> jackknife_mcse(covs, lambda stack: np.trace(stack, axis1=1, axis2=2))
 array([1.])
 """
 
@@ -265,7 +265,9 @@ def jackknife_mcse(covs, score):
     covs : ndarray of shape (n_subsets, n_mc, r, r)
         Per-replicate posterior covariances.
     score : callable
-        ``score(cov) -> float`` for an (r, r) covariance.
+        ``score(covs) -> ndarray (m,)`` for a stack of ``m`` covariances
+        ``(m, r, r)``, e.g. :func:`~skmba._preposterior.criterion_value`
+        with the prior's covariance and a criterion bound.
 
     Returns
     -------
@@ -277,7 +279,7 @@ def jackknife_mcse(covs, score):
     if n < 2:
         return np.full(covs.shape[0], np.nan)
     left_out = (covs.sum(axis=1, keepdims=True) - covs) / (n - 1)
-    scores = np.array([[score(c) for c in subset] for subset in left_out])
+    scores = score(left_out.reshape(-1, *covs.shape[2:])).reshape(covs.shape[:2])
     spread = ((scores - scores.mean(axis=1, keepdims=True)) ** 2).sum(axis=1)
     return np.sqrt((n - 1) / n * spread)
 

@@ -277,7 +277,11 @@ def test_jackknife_of_the_trace_is_the_standard_error_of_the_mean():
     covs = a @ np.swapaxes(a, -1, -2)  # (subsets, replicates, r, r)
     traces = np.trace(covs, axis1=-2, axis2=-1)
     expected = traces.std(axis=1, ddof=1) / np.sqrt(20)
-    np.testing.assert_allclose(jackknife_mcse(covs, np.trace), expected, rtol=1e-12)
+
+    def trace(stack):
+        return np.trace(stack, axis1=1, axis2=2)
+
+    np.testing.assert_allclose(jackknife_mcse(covs, trace), expected, rtol=1e-12)
 
 
 def test_jackknife_of_a_nonlinear_score_matches_the_definition():
@@ -285,11 +289,14 @@ def test_jackknife_of_a_nonlinear_score_matches_the_definition():
     a = rng.normal(size=(1, 6, 2, 2))
     covs = a @ np.swapaxes(a, -1, -2)
 
-    def score(cov):
-        return float(np.sqrt(np.linalg.det(cov)))
+    def score(stack):  # a stack (m, r, r) -> (m,)
+        return np.sqrt(np.linalg.det(stack))
 
     loo = np.array(
-        [score(np.delete(covs[0], i, axis=0).mean(axis=0)) for i in range(6)]
+        [
+            float(np.sqrt(np.linalg.det(np.delete(covs[0], i, axis=0).mean(axis=0))))
+            for i in range(6)
+        ]
     )
     expected = np.sqrt(5 / 6 * np.sum((loo - loo.mean()) ** 2))
     assert jackknife_mcse(covs, score)[0] == pytest.approx(expected, rel=1e-12)
