@@ -44,6 +44,7 @@ from skmba._integration import integrate_over_rule
 from skmba._progress import results_as_ready
 from skmba._regression import regression_basis
 from skmba._subset_likelihood import SubsetLikelihood
+from skmba._subset_tree import FieldTerms, subset_tree_log_likelihoods
 from skmba._threads import BlasTask
 from skmba._validation import int_seed
 
@@ -338,6 +339,16 @@ def _embedded(sigma2_d, noise, subset, q):
     return full, noise_full
 
 
+#: Matrices (fields x stage-1 nodes) stacked in one prefix tree: larger
+#: stacks leave the processor's cache.
+TREE_STACK = 256
+
+
+def _plug_in(rep):
+    """A replicate's module-2 estimates as a single draw (plug-in, fast)."""
+    return _PlugIn(rep.kernel_d, rep.sigma2_d, rep.noise)
+
+
 def _subset_likelihoods(ctx, rep, subset):
     """The module-3 likelihoods of a subset and their log weights.
 
@@ -347,7 +358,7 @@ def _subset_likelihoods(ctx, rep, subset):
     if ctx.hyperprior is not None:
         draws = rep.draws if ctx.fast else _fit_module2_draws(ctx, rep, subset)
     elif ctx.fast:
-        draws = _PlugIn(rep.kernel_d, rep.sigma2_d, rep.noise)
+        draws = _plug_in(rep)
     else:
         disc = _fit_module2(ctx, rep, subset)
         draws = _PlugIn(disc.kernel_, disc.sigma2, disc.noise)
@@ -392,28 +403,79 @@ def _mixed(likes, log_weights, pieces):
 
 
 def posterior_block(ctx, replicates, subsets):
-    """Step 2b-2c for some replicates and subsets: posterior moments."""
+    """Step 2b-2c for some replicates and subsets: posterior moments.
+
+    With ``fast`` (module 2 fitted once per replicate), the likelihoods at
+    the stage-1 nodes of every subset come from one prefix tree per block
+    of replicates (:func:`~skmba._subset_tree.subset_tree_log_likelihoods`);
+    a subset's own :class:`SubsetLikelihood` is built only when its
+    posterior needs the stage-2 nodes.
+    """
     r = ctx.prior.dim
     means = np.empty((len(replicates), len(subsets), r))
     covs = np.empty((len(replicates), len(subsets), r, r))
     design = ctx.design
+    stage1 = _stage1_log_likelihoods(ctx, replicates, subsets) if ctx.fast else None
     for i, rep in enumerate(replicates):
         for j, subset in enumerate(subsets):
-            likes, log_w = _subset_likelihoods(ctx, rep, subset)
+            cache = {}
 
-            def log_likelihood(thetas, likes=likes, log_w=log_w):
+            def log_likelihood(thetas, subset=subset, rep=rep, cache=cache):
+                if not cache:
+                    cache["mixture"] = _subset_likelihoods(ctx, rep, subset)
+                likes, log_w = cache["mixture"]
                 return _mixed(likes, log_w, design.pieces(ctx.std_theta(thetas)))
 
             seed = int_seed(np.random.SeedSequence([rep.seed, 2, _mask(subset)]))
+            at_nodes = log_likelihood(ctx.nodes) if stage1 is None else stage1[i, j]
             means[i, j], covs[i, j] = posterior_moments(
                 log_likelihood,
                 ctx.prior,
                 ctx.nodes,
                 ctx.weights,
-                _mixed(likes, log_w, ctx.pieces),
+                at_nodes,
                 seed=seed,
             )
     return means, covs
+
+
+def _stage1_log_likelihoods(ctx, replicates, subsets):
+    """The (mixed) log-likelihood of every replicate and subset at the
+    stage-1 nodes, ``(n_replicates, n_subsets, k)``, from prefix trees.
+
+    The fields of a tree (one per replicate and module-2 draw) are grouped
+    so that a tree's stack stays near :data:`TREE_STACK` matrices.
+    """
+    fields, owner, log_w = [], [], []
+    for i, rep in enumerate(replicates):
+        draws = rep.draws if ctx.hyperprior is not None else _plug_in(rep)
+        for c, lw in zip(draws.components, draws.log_weights, strict=True):
+            fields.append(FieldTerms(rep.Y_e, c.kernel_(ctx.Xs), c.sigma2, c.noise))
+            owner.append(i)
+            log_w.append(lw)
+    k = len(ctx.nodes)
+    per_tree = max(1, TREE_STACK // k)
+    values = np.concatenate(
+        [
+            subset_tree_log_likelihoods(
+                ctx.design, subsets, fields[g : g + per_tree], ctx.H_d, ctx.pieces
+            )
+            for g in range(0, len(fields), per_tree)
+        ],
+        axis=1,
+    )  # (n_subsets, n_fields, k)
+    owner, log_w = np.array(owner), np.array(log_w)
+    out = np.empty((len(replicates), len(subsets), k))
+    for i in range(len(replicates)):
+        mine = owner == i
+        if mine.sum() == 1:
+            out[i] = values[:, mine][:, 0]
+        else:
+            with np.errstate(invalid="ignore"):  # -inf + finite weights
+                out[i] = special.logsumexp(
+                    values[:, mine] + log_w[mine][None, :, None], axis=1
+                )
+    return out
 
 
 def check_design_priors(discrepancy_prior, noise_prior, prior_units, d, q, y_scale):
@@ -502,9 +564,10 @@ def subset_moments(
 ):
     """Posterior means and covariances of ``subsets`` for every replicate.
 
-    Tasks of a block of replicates and a chunk of about
+    Tasks of a block of replicates and, with ``fast``, all the subsets
+    (they share a prefix tree); otherwise a chunk of about
     ``_TASK_EVALUATIONS / len(block)`` subsets, taken with a stride so
-    that every chunk mixes small and large subsets; the bar advances as
+    that every chunk mixes small and large subsets. The bar advances as
     each task returns. With ``estimate``, the first task's time gives
     the expected time of all (a line, and a warning beyond
     ``LONG_SEARCH_SECONDS``). Each (subset, replicate) is computed on
@@ -512,7 +575,12 @@ def subset_moments(
     ``{subset: (means (n_mc, r), covs (n_mc, r, r))}``.
     """
     size = max(len(block) for block in blocks)
-    n_chunks = min(len(subsets), -(-len(subsets) * size // _TASK_EVALUATIONS))
+    # With ``fast``, a task's subsets share one prefix tree: all in one chunk.
+    n_chunks = (
+        1
+        if ctx.fast
+        else min(len(subsets), -(-len(subsets) * size // _TASK_EVALUATIONS))
+    )
     chunks = [subsets[c::n_chunks] for c in range(n_chunks)]
     tasks = [(chunk, block) for chunk in chunks for block in blocks]
     task = BlasTask(_timed_posterior_block, ctx.n * ctx.q, n_jobs)

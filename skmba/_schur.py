@@ -74,7 +74,7 @@ def schur_log_likelihoods(S, Z, eigenvalue_floor, top, rss_top_perp, log_det_A, 
     FactorizationError
         When the regression is rank deficient at some ``k``.
     """
-    k, P = len(S), Z.shape[2] - 1
+    k = len(S)
     out = np.full(k, -np.inf)
     ok = np.ones(k, dtype=bool)
     try:
@@ -92,21 +92,54 @@ def schur_log_likelihoods(S, Z, eigenvalue_floor, top, rss_top_perp, log_det_A, 
         if not ok.any():
             return out
         L, W = L[ok], W[ok]
+    log_det_S = 2.0 * np.sum(np.log(np.diagonal(L, axis1=1, axis2=2)), axis=1)
+    out[ok] = regression_log_likelihoods(
+        log_det_S, W, top, rss_top_perp, log_det_A, n_data
+    )
+    return out
+
+
+def regression_log_likelihoods(log_det_S, W, top, rss_top_perp, log_det_A, n_data):
+    """Eq. 4.30 from whitened field rows, the regression integrated out.
+
+    The last step of :func:`schur_log_likelihoods`, shared with the
+    designer's prefix tree of response subsets
+    (:func:`~skmba._subset_tree.subset_tree_log_likelihoods`), which
+    whitens the field rows block by block.
+
+    Parameters
+    ----------
+    log_det_S : ndarray of shape (k,)
+        ``log |S_k|``.
+    W : ndarray of shape (k, m, P + 1)
+        Whitened field rows ``F_k^-1 Z_k``, for any square root ``F_k``
+        (``F_k F_k' = S_k``).
+    top, rss_top_perp, log_det_A, n_data
+        As :func:`schur_log_likelihoods`.
+
+    Returns
+    -------
+    ndarray of shape (k,)
+
+    Raises
+    ------
+    FactorizationError
+        When the regression is rank deficient at some ``k``.
+    """
+    P = W.shape[2] - 1
     stacked = np.concatenate([np.broadcast_to(top, (len(W), *top.shape)), W], axis=1)
     R = np.linalg.qr(stacked, mode="r")
     diag = np.abs(np.diagonal(R[:, :P, :P], axis1=1, axis2=2))
     if np.any(diag.min(axis=1) <= RANK_TOLERANCE * diag.max(axis=1)):
         raise FactorizationError(RANK_DEFICIENT)
     rss = rss_top_perp + R[:, P, P] ** 2
-    log_det_S = 2.0 * np.sum(np.log(np.diagonal(L, axis1=1, axis2=2)), axis=1)
-    out[ok] = -0.5 * (
+    return -0.5 * (
         (n_data - P) * LOG_2PI
         + log_det_A
         + log_det_S
         + 2.0 * np.sum(np.log(diag), axis=1)
         + rss
     )
-    return out
 
 
 #: Bytes of bordered matrices that one stacked factorisation may hold (the

@@ -212,14 +212,16 @@ def test_propagate_changes_module_2_and_the_data_priors_only(small, propagated):
 
 def test_propagate_full_subset_is_the_same_fit_fast_or_not(small, propagated):
     """With every response, re-estimating module 2 per subset (fast=False)
-    fits the very same data with the same seed: identical scores."""
+    fits the very same data with the same seed: the same scores, to the
+    round-off of factoring the subset along the prefix tree (fast) or on
+    its own (fast=False)."""
     data, X = small
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         full = designer(
             data.prior, discrepancy_uncertainty="propagate", n_mc=4, fast=False
         ).fit(X, data.y_sim)
-    np.testing.assert_allclose(full.scores_[-1], propagated.scores_[-1], rtol=1e-12)
+    np.testing.assert_allclose(full.scores_[-1], propagated.scores_[-1], rtol=1e-7)
     # Smaller subsets are fitted on their own responses: other estimates.
     assert not np.allclose(full.scores_[:-1], propagated.scores_[:-1])
 
