@@ -420,14 +420,16 @@ def posterior_block(ctx, replicates, subsets):
         for j, subset in enumerate(subsets):
             cache = {}
 
-            def log_likelihood(thetas, subset=subset, rep=rep, cache=cache):
+            def at(pieces, subset=subset, rep=rep, cache=cache):
                 if not cache:
                     cache["mixture"] = _subset_likelihoods(ctx, rep, subset)
-                likes, log_w = cache["mixture"]
-                return _mixed(likes, log_w, design.pieces(ctx.std_theta(thetas)))
+                return _mixed(*cache["mixture"], pieces)
+
+            def log_likelihood(thetas, at=at):
+                return at(design.pieces(ctx.std_theta(thetas)))
 
             seed = int_seed(np.random.SeedSequence([rep.seed, 2, _mask(subset)]))
-            at_nodes = log_likelihood(ctx.nodes) if stage1 is None else stage1[i, j]
+            at_nodes = at(ctx.pieces) if stage1 is None else stage1[i, j]
             means[i, j], covs[i, j] = posterior_moments(
                 log_likelihood,
                 ctx.prior,
