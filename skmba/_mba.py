@@ -379,7 +379,11 @@ def _module3(
             ),
         )
     rule = prediction_rule(
-        posterior, log_post, random_state=seed, with_draws=not first_pass
+        posterior,
+        log_post,
+        random_state=seed,
+        with_draws=not first_pass,
+        n_jobs=est.n_jobs,
     )
     say(posterior.summary(time.perf_counter() - started))
     return dict(

@@ -17,15 +17,21 @@ Examples
 import copy
 
 import numpy as np
+from joblib import Parallel, delayed
 from scipy import special
 
-from skmba._linalg import FactorizationError
+from skmba._linalg import FactorizationError, n_workers
 from skmba._schur import stack_chunks
+from skmba._threads import BlasTask
 
 #: A module-2 draw whose weight ``p(phi_k | theta, data)`` stays below this
 #: around the posterior of theta is left out of the sampler's mixture
 #: (:meth:`ModelMixture.restricted`).
 IDLE_WEIGHT = 1e-10
+#: Thetas per joblib task of :meth:`ModelMixture.spread_component_log_likelihoods`:
+#: fixed by the problem, so that the tasks, hence the bits, do not depend on
+#: ``n_jobs``.
+TASK_THETAS = 25
 
 
 class ModelMixture:
@@ -92,6 +98,29 @@ class ModelMixture:
             When the regression is rank deficient at one of ``thetas``.
         """
         return self._stacked(thetas, None)
+
+    def spread_component_log_likelihoods(self, thetas, n_jobs=None):
+        """:meth:`batch_component_log_likelihoods` in joblib tasks.
+
+        For the checks and module-4 weights at many posterior draws (a
+        few hundred thetas times every draw), which would otherwise leave
+        all but one core idle. The thetas go in tasks of
+        :data:`TASK_THETAS`, the same for any ``n_jobs`` (``None`` or 1:
+        one after the other in this process), each under the BLAS threads
+        of :class:`~skmba._threads.BlasTask`: the values are bit-identical
+        for any ``n_jobs`` and backend below its threshold order.
+        """
+        thetas = np.atleast_2d(thetas)
+        groups = [
+            thetas[i : i + TASK_THETAS] for i in range(0, len(thetas), TASK_THETAS)
+        ]
+        task = BlasTask(_component_values, self.n * self.q, n_jobs)
+        with task.held():
+            if n_workers(n_jobs) <= 1 or len(groups) == 1:
+                parts = [task(self, g) for g in groups]
+            else:
+                parts = Parallel(n_jobs=n_jobs)(delayed(task)(self, g) for g in groups)
+        return np.concatenate(parts)
 
     def labelled_log_likelihoods(self, thetas, labels):
         """``log w_k + log p(data | theta_b, phi_k)`` with ``k = labels[b]``
@@ -187,3 +216,8 @@ class ModelMixture:
         """Kish's effective number of draws at ``theta`` (1 to ``K``)."""
         w = self.draw_weights(theta)
         return float(1.0 / np.sum(w**2))
+
+
+def _component_values(mixture, thetas):
+    """A joblib task of :meth:`ModelMixture.spread_component_log_likelihoods`."""
+    return mixture.batch_component_log_likelihoods(thetas)

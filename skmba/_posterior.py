@@ -539,13 +539,14 @@ def _without_idle_draws(log_posterior, mode, cov, starts):
     return log_posterior.with_model(restricted), kept
 
 
-def _idle_weight(log_posterior, kept, samples):
-    """The largest weight of the draws left out, at thinned posterior draws."""
+def _idle_weight(log_posterior, kept, samples, n_jobs=None):
+    """The largest weight of the draws left out, at thinned posterior draws
+    (evaluated in ``n_jobs`` joblib tasks)."""
     model = log_posterior.model
     left_out = np.setdiff1d(np.arange(len(model.models)), kept)
     step = max(1, len(samples) // _IDLE_CHECK_DRAWS)
     thetas = log_posterior.scaler.theta(samples[::step])
-    values = model.batch_component_log_likelihoods(thetas)
+    values = model.spread_component_log_likelihoods(thetas, n_jobs)
     weights = np.exp(values - special.logsumexp(values, axis=1, keepdims=True))
     return float(np.max(weights[:, left_out]))
 
@@ -635,7 +636,10 @@ def posterior_by_mcmc(
     if chain_posterior is not log_posterior:
         n_draws = len(log_posterior.model.models)
         idle = _idle_weight(
-            log_posterior, kept, log_posterior.from_u(result.samples.reshape(-1, r))
+            log_posterior,
+            kept,
+            log_posterior.from_u(result.samples.reshape(-1, r)),
+            n_jobs,
         )
         if idle > _IDLE_CHECK_WEIGHT:
             say(

@@ -81,7 +81,9 @@ class PredictionRule:
         return cls(nodes[:, None], v / v.sum())
 
 
-def prediction_rule(posterior, log_posterior, random_state=None, with_draws=True):
+def prediction_rule(
+    posterior, log_posterior, random_state=None, with_draws=True, n_jobs=None
+):
     """The module-4 rule of a :class:`~skmba._posterior.PosteriorResult`.
 
     Over a :class:`~skmba._mixture.ModelMixture`, each ``theta`` of the rule
@@ -90,7 +92,8 @@ def prediction_rule(posterior, log_posterior, random_state=None, with_draws=True
     their node's weight left out), one draw per ``theta`` picked with that
     probability (systematic sampling, seeded by ``random_state``) for MCMC.
     ``with_draws=False`` leaves them out (a rule that only integrates over
-    theta, as the propagated module 2's first pass).
+    theta, as the propagated module 2's first pass). The weights at the
+    rule's thetas are computed in ``n_jobs`` joblib tasks.
     """
     mixture = log_posterior.model
     if posterior.method == "quadrature":
@@ -100,7 +103,7 @@ def prediction_rule(posterior, log_posterior, random_state=None, with_draws=True
     if not hasattr(mixture, "draw_weights") or not with_draws:
         return rule
     scaler = log_posterior.scaler
-    given = _draw_weights(mixture, scaler.theta(rule.thetas))
+    given = _draw_weights(mixture, scaler.theta(rule.thetas), n_jobs)
     if posterior.method == "quadrature":
         keep = given >= 1e-4 * given.max(axis=1, keepdims=True)
         i, k = np.nonzero(keep)
@@ -114,12 +117,13 @@ def prediction_rule(posterior, log_posterior, random_state=None, with_draws=True
     return PredictionRule(rule.thetas, rule.weights, draws)
 
 
-def _draw_weights(mixture, thetas):
+def _draw_weights(mixture, thetas, n_jobs=None):
     """``p(phi_k | theta, data)`` (m, K) at the rows of ``thetas``
-    (standardised), evaluated together; one by one (raising, saying why)
-    when some theta has no draw that can be evaluated."""
+    (standardised), evaluated together (in ``n_jobs`` joblib tasks); one by
+    one (raising, saying why) when some theta has no draw that can be
+    evaluated."""
     try:
-        values = mixture.batch_component_log_likelihoods(thetas)
+        values = mixture.spread_component_log_likelihoods(thetas, n_jobs)
     except FactorizationError:
         values = None
     if values is None or not np.all(np.isfinite(values).any(axis=1)):

@@ -98,6 +98,21 @@ def test_one_draw_is_the_plug_in_model(request, dense_global, data):
         )
 
 
+def test_spread_evaluation_is_the_batch_one_for_any_n_jobs(problem):
+    from skmba._mixture import TASK_THETAS
+
+    mix = ModelMixture(problem[1], _draws(K=5, seed=2))
+    thetas = np.linspace(-0.9, 0.9, 2 * TASK_THETAS + 7)[:, None]  # 3 tasks
+    serial = mix.spread_component_log_likelihoods(thetas)
+    assert serial.shape == (len(thetas), 5)
+    np.testing.assert_allclose(
+        serial, mix.batch_component_log_likelihoods(thetas), rtol=1e-12
+    )
+    np.testing.assert_array_equal(
+        mix.spread_component_log_likelihoods(thetas, n_jobs=2), serial
+    )
+
+
 def test_draw_weights_and_effective_draws(problem):
     gm = problem[1]
     mix = ModelMixture(gm, _draws(K=8, seed=1))
