@@ -44,7 +44,7 @@ from skmba._integration import integrate_over_rule
 from skmba._progress import results_as_ready
 from skmba._regression import regression_basis
 from skmba._subset_likelihood import SubsetLikelihood
-from skmba._subset_tree import FieldTerms, subset_tree_log_likelihoods
+from skmba._subset_tree import FieldTerms, path_bytes, subset_tree_log_likelihoods
 from skmba._threads import BlasTask
 from skmba._validation import int_seed
 
@@ -339,9 +339,11 @@ def _embedded(sigma2_d, noise, subset, q):
     return full, noise_full
 
 
-#: Matrices (fields x stage-1 nodes) stacked in one prefix tree: larger
-#: stacks leave the processor's cache.
-TREE_STACK = 256
+#: Bytes that one prefix tree of the subsets may hold along its path
+#: (:func:`~skmba._subset_tree.path_bytes` per field and theta): its fields
+#: and stage-1 nodes are split to fit. On the truss (12 design points, 9
+#: gauges, 33 nodes) stacks of 2 to 31 fields ran alike.
+TREE_BYTES = 64 * 2**20
 
 
 def _plug_in(rep):
@@ -445,8 +447,9 @@ def _stage1_log_likelihoods(ctx, replicates, subsets):
     """The (mixed) log-likelihood of every replicate and subset at the
     stage-1 nodes, ``(n_replicates, n_subsets, k)``, from prefix trees.
 
-    The fields of a tree (one per replicate and module-2 draw) are grouped
-    so that a tree's stack stays near :data:`TREE_STACK` matrices.
+    The fields (one per replicate and module-2 draw) and, when a single
+    field would not fit, the nodes are split so that a tree holds at most
+    :data:`TREE_BYTES` along its path.
     """
     fields, owner, log_w = [], [], []
     for i, rep in enumerate(replicates):
@@ -456,13 +459,24 @@ def _stage1_log_likelihoods(ctx, replicates, subsets):
             owner.append(i)
             log_w.append(lw)
     k = len(ctx.nodes)
-    per_tree = max(1, TREE_STACK // k)
+    per_tree = max(1, TREE_BYTES // path_bytes(ctx.n, ctx.q))  # (field, theta)s
+    n_fields, n_thetas = max(1, per_tree // k), min(k, per_tree)
     values = np.concatenate(
         [
-            subset_tree_log_likelihoods(
-                ctx.design, subsets, fields[g : g + per_tree], ctx.H_d, ctx.pieces
+            np.concatenate(
+                [
+                    subset_tree_log_likelihoods(
+                        ctx.design,
+                        subsets,
+                        fields[g : g + n_fields],
+                        ctx.H_d,
+                        tuple(piece[t : t + n_thetas] for piece in ctx.pieces),
+                    )
+                    for t in range(0, k, n_thetas)
+                ],
+                axis=2,
             )
-            for g in range(0, len(fields), per_tree)
+            for g in range(0, len(fields), n_fields)
         ],
         axis=1,
     )  # (n_subsets, n_fields, k)

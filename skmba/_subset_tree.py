@@ -161,18 +161,33 @@ def subset_tree_log_likelihoods(design, subsets, fields, H_d, pieces):
         np.zeros(b),
         np.ones(b, dtype=bool),
     )
-    stack = [root]
+    # Depth first, a child made only when it is visited: the nodes held are
+    # those of the current path (each referenced by its pending children).
+    stack = [(root, a) for a in reversed(children[()])]
     while stack:
-        node = stack.pop()
-        for a in reversed(children[node.path]):  # pushed last, visited first
-            child = _extend(node, a, futures, covariance, H_rows, Y, M, n, p)
-            if child.path in index:
-                out[index[child.path]] = _log_likelihood(
-                    design, child, p_m, p_d
-                ).reshape(c, k)
-            if child.path in children:
-                stack.append(child)
+        node, a = stack.pop()
+        child = _extend(node, a, futures, covariance, H_rows, Y, M, n, p)
+        if child.path in index:
+            out[index[child.path]] = _log_likelihood(design, child, p_m, p_d).reshape(
+                c, k
+            )
+        stack.extend((child, b) for b in reversed(children.get(child.path, ())))
     return out
+
+
+def path_bytes(n, q):
+    """Bytes one (field, theta) needs along a path of the prefix tree.
+
+    The carried columns ``U`` of the nodes on a path of all ``q``
+    responses: ``8 n^2 sum_j j (q - j)``, the most the depth-first walk
+    holds at once (the whitened rows are far smaller).
+
+    Examples
+    --------
+    >>> path_bytes(12, 9)
+    138240
+    """
+    return 8 * n * n * sum(j * (q - j) for j in range(1, q + 1))
 
 
 def _extend(node, a, futures, covariance, H_rows, Y, M, n, p):

@@ -42,6 +42,38 @@ def exhaustive(small):
         return designer(data.prior).fit(X, data.y_sim)
 
 
+@pytest.mark.parametrize("budget", ["one field", "one theta"])
+def test_prefix_trees_split_to_their_memory_budget_give_the_same_scores(
+    small, exhaustive, budget, monkeypatch
+):
+    """Trees over fewer fields, or over fewer nodes of one field, when a
+    tree would hold more than TREE_BYTES: the same posterior moments."""
+    import skmba._preposterior as prepost
+    from skmba._subset_tree import path_bytes
+
+    per_element = path_bytes(exhaustive.X_design_.shape[0], 3)
+    nodes = 33  # one parameter: the stage-1 Gauss-Legendre rule
+    elements = nodes if budget == "one field" else 5  # 1 field, 7 node chunks
+    monkeypatch.setattr(prepost, "TREE_BYTES", elements * per_element)
+    shapes = []
+    tree = prepost.subset_tree_log_likelihoods
+
+    def recorded(design, subsets, fields, H_d, pieces):
+        shapes.append((len(fields), len(pieces[0])))
+        return tree(design, subsets, fields, H_d, pieces)
+
+    monkeypatch.setattr(prepost, "subset_tree_log_likelihoods", recorded)
+    data, X = small
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        split = designer(data.prior, n_jobs=1).fit(X, data.y_sim)
+    assert max(f for f, _ in shapes) == 1
+    assert max(t for _, t in shapes) == (nodes if budget == "one field" else 5)
+    np.testing.assert_allclose(
+        split.preposterior_cov_, exhaustive.preposterior_cov_, rtol=1e-12
+    )
+
+
 def test_fitted_attributes_are_consistent(exhaustive):
     d = exhaustive
     assert d.subsets_ == [(0,), (1,), (2,), (0, 1), (0, 2), (1, 2), (0, 1, 2)]
