@@ -63,13 +63,18 @@ class FieldTerms(NamedTuple):
 
 
 class _Node(NamedTuple):
-    """What a tree node passes to its children (leading axis: field x theta)."""
+    """What a tree node passes to its children (leading axis: field x theta).
+
+    ``G`` holds, on the path's ``n |path|`` whitened rows, the columns
+    ``L^-1 S[path, f]`` of each later response ``f`` of ``future`` (``n``
+    each), then the whitened regression (``p_m + p_d`` per path response)
+    and the whitened data (one): one array, so that a child takes all its
+    products with the path's rows in one product and one solve.
+    """
 
     path: tuple  # its responses, increasing
-    U: np.ndarray  # (b, n |path|, n |future|): L^-1 S[path, future]
-    future: tuple  # the responses of ``U``'s column blocks
-    W_reg: np.ndarray  # (b, n |path|, (p_m + p_d) |path|): whitened regression
-    w_y: np.ndarray  # (b, n |path|): whitened data
+    G: np.ndarray  # (b, n |path|, n |future| + (p_m + p_d) |path| + 1)
+    future: tuple  # the responses of G's leading column blocks
     log_det: np.ndarray  # (b,): log |S_path|
     alive: np.ndarray  # (b,) bool: S_path positive definite
 
@@ -154,10 +159,8 @@ def subset_tree_log_likelihoods(design, subsets, fields, H_d, pieces):
     out = np.empty((len(subsets), c, k))
     root = _Node(
         (),
-        np.zeros((b, 0, n * len(futures[()]))),
+        np.zeros((b, 0, n * len(futures[()]) + 1)),
         futures[()],
-        np.zeros((b, 0, 0)),
-        np.zeros((b, 0)),
         np.zeros(b),
         np.ones(b, dtype=bool),
     )
@@ -168,9 +171,9 @@ def subset_tree_log_likelihoods(design, subsets, fields, H_d, pieces):
         node, a = stack.pop()
         child = _extend(node, a, futures, covariance, H_rows, Y, M, n, p)
         if child.path in index:
-            out[index[child.path]] = _log_likelihood(design, child, p_m, p_d).reshape(
-                c, k
-            )
+            out[index[child.path]] = _log_likelihood(
+                design, child, n, p_m, p_d
+            ).reshape(c, k)
         stack.extend((child, b) for b in reversed(children.get(child.path, ())))
     return out
 
@@ -196,45 +199,38 @@ def _extend(node, a, futures, covariance, H_rows, Y, M, n, p):
     future = futures.get(path, ())  # all later responses of its subsets
     b, rows = len(node.alive), n * len(node.path)
     blocks = {r: j for j, r in enumerate(node.future)}
-    U_a = node.U[:, :, n * blocks[a] : n * (blocks[a] + 1)]  # (b, rows, n)
-    U_rest = np.concatenate(
-        [node.U[:, :, n * blocks[r] : n * (blocks[r] + 1)] for r in future]
-        or [np.zeros((b, rows, 0))],
-        axis=2,
+    m_u = n * len(node.future)  # the tail: the regression and the data
+    columns = np.concatenate(
+        [np.arange(n * blocks[r], n * (blocks[r] + 1)) for r in (a, *future)]
+        + [np.arange(m_u, node.G.shape[2])]
     )
+    taken = node.G[:, :, columns]  # [U_a, U_rest, W_reg, w_y] on the path rows
+    m_rest = n * len(future)
     # The covariance of response a and of the responses that follow it,
     # given the path (a Schur complement), and the field rows of a less
-    # their regression on the path's rows.
-    U_a_t = np.swapaxes(U_a, 1, 2)
-    given = covariance(a, (a, *future)) - U_a_t @ np.concatenate([U_a, U_rest], axis=2)
-    C_aa = 0.5 * (given[:, :, :n] + np.swapaxes(given[:, :, :n], 1, 2))
-    F_a, alive = _factor(C_aa, node.alive)
+    # their regression on the path's rows, in one product.
+    given = np.swapaxes(taken[:, :, :n], 1, 2) @ taken  # U_a' [...]
+    S_a = covariance(a, (a, *future))
+    C_aa = S_a[:, :, :n] - given[:, :, :n]
+    F_a, alive = _factor(0.5 * (C_aa + np.swapaxes(C_aa, 1, 2)), node.alive)
     y_a = (Y[:, None, :, a] - M[None, :, :, a]).reshape(b, n)
     rhs = np.concatenate(
         [
-            given[:, :, n:],
-            -(U_a_t @ node.W_reg),
+            S_a[:, :, n:] - given[:, :, n : n + m_rest],
+            -given[:, :, n + m_rest : -1],
             H_rows,
-            (y_a - (U_a_t @ node.w_y[:, :, None])[:, :, 0])[:, :, None],
+            (y_a - given[:, :, -1])[:, :, None],
         ],
         axis=2,
     )
-    solved = np.linalg.solve(F_a, rhs)  # F_a^-1 [...]
-    m_rest = U_rest.shape[2]
-    m_reg = node.W_reg.shape[2]
-    W_reg = np.concatenate(
-        [
-            np.concatenate([node.W_reg, np.zeros((b, rows, p))], axis=2),
-            solved[:, :, m_rest : m_rest + m_reg + p],
-        ],
-        axis=1,
+    solved = np.linalg.solve(F_a, rhs)  # F_a^-1 [...]: the new rows
+    old = np.concatenate(  # the path rows, zero in the new regression columns
+        [taken[:, :, n:-1], np.zeros((b, rows, p)), taken[:, :, -1:]], axis=2
     )
     return _Node(
         path,
-        np.concatenate([U_rest, solved[:, :, :m_rest]], axis=1),
+        np.concatenate([old, solved], axis=1),
         future,
-        W_reg,
-        np.concatenate([node.w_y, solved[:, :, -1]], axis=1),
         node.log_det + 2.0 * np.sum(np.log(np.diagonal(F_a, axis1=1, axis2=2)), axis=1),
         alive,
     )
@@ -259,7 +255,7 @@ def _factor(C, alive):
         return F, alive
 
 
-def _log_likelihood(design, node, p_m, p_d):
+def _log_likelihood(design, node, n, p_m, p_d):
     """Eq. 4.30 of a tree node's subset (``-inf`` where it is not alive)."""
     s = len(node.path)
     _, G, b_top, rss_perp, log_det_A = design.simulation_block(node.path)
@@ -273,7 +269,8 @@ def _log_likelihood(design, node, p_m, p_d):
     order = np.concatenate(
         [(per + np.arange(p_m)).ravel(), (per + p_m + np.arange(p_d)).ravel()]
     )
-    W = np.concatenate([node.W_reg[:, :, order], node.w_y[:, :, None]], axis=2)
+    tail = node.G[:, :, n * len(node.future) :]  # [W_reg, w_y]
+    W = tail[:, :, np.append(order, P)]
     out = np.full(len(node.alive), -np.inf)
     if node.alive.any():
         M = (design.N + design.n) * s
