@@ -459,7 +459,8 @@ def _stage1_log_likelihoods(ctx, replicates, subsets):
             owner.append(i)
             log_w.append(lw)
     k = len(ctx.nodes)
-    per_tree = max(1, TREE_BYTES // path_bytes(ctx.n, ctx.q))  # (field, theta)s
+    p = ctx.design.p_m + ctx.H_d.shape[1]
+    per_tree = max(1, TREE_BYTES // path_bytes(ctx.n, ctx.q, p))  # (field, theta)s
     n_fields, n_thetas = max(1, per_tree // k), min(k, per_tree)
     values = np.concatenate(
         [

@@ -178,19 +178,21 @@ def subset_tree_log_likelihoods(design, subsets, fields, H_d, pieces):
     return out
 
 
-def path_bytes(n, q):
+def path_bytes(n, q, p):
     """Bytes one (field, theta) needs along a path of the prefix tree.
 
-    The carried columns ``U`` of the nodes on a path of all ``q``
-    responses: ``8 n^2 sum_j j (q - j)``, the most the depth-first walk
-    holds at once (the whitened rows are far smaller).
+    The carried columns of the nodes on a path of all ``q`` responses
+    (``n`` field inputs, ``p`` regression columns per response): at depth
+    ``j``, ``n j`` rows of the ``n (q - j)`` later responses' columns,
+    ``p j`` regression columns and the data; the most the depth-first walk
+    holds at once.
 
     Examples
     --------
-    >>> path_bytes(12, 9)
-    138240
+    >>> path_bytes(12, 9, 2), path_bytes(12, 1, 2)
+    (197280, 288)
     """
-    return 8 * n * n * sum(j * (q - j) for j in range(1, q + 1))
+    return 8 * sum(n * j * (n * (q - j) + p * j + 1) for j in range(1, q + 1))
 
 
 def _extend(node, a, futures, covariance, H_rows, Y, M, n, p):

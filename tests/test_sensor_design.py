@@ -51,7 +51,9 @@ def test_prefix_trees_split_to_their_memory_budget_give_the_same_scores(
     import skmba._preposterior as prepost
     from skmba._subset_tree import path_bytes
 
-    per_element = path_bytes(exhaustive.X_design_.shape[0], 3)
+    # 8 design points, 3 responses; the calibrator's default regressions
+    # are constant (p_m = p_d = 1).
+    per_element = path_bytes(exhaustive.X_design_.shape[0], 3, 2)
     nodes = 33  # one parameter: the stage-1 Gauss-Legendre rule
     elements = nodes if budget == "one field" else 5  # 1 field, 7 node chunks
     monkeypatch.setattr(prepost, "TREE_BYTES", elements * per_element)
