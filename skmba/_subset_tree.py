@@ -174,7 +174,7 @@ def subset_tree_log_likelihoods(design, subsets, fields, H_d, pieces):
             out[index[child.path]] = _log_likelihood(
                 design, child, n, p_m, p_d
             ).reshape(c, k)
-        stack.extend((child, b) for b in reversed(children.get(child.path, ())))
+        stack.extend((child, later) for later in reversed(children.get(child.path, ())))
     return out
 
 
