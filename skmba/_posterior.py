@@ -630,6 +630,8 @@ def posterior_by_mcmc(
             random_state=copy.deepcopy(chains_seed),
             progress=progress,
             keep_log_density=check,
+            # An earlier run's draws fit the independence proposal at once.
+            moments=None if earlier is None else (mode, cov),
         )
 
     result = sample(chain_posterior)

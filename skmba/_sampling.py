@@ -132,6 +132,7 @@ def run_chains(
     verbose=0,
     progress=None,
     keep_log_density=True,
+    moments=None,
 ):
     """Run adaptive Metropolis-Hastings chains in parallel.
 
@@ -208,6 +209,15 @@ def run_chains(
         Return the log density at the draws; False saves, for a labelled
         target, its evaluation at the distinct draws after sampling
         (:attr:`ChainResult.log_density` is then None).
+    moments : tuple of (ndarray of shape (r,), ndarray of shape (r, r)), \
+default=None
+        The target's mean and covariance known from an earlier run (e.g.
+        draws of a nearby target). With ``independence`` > 0, independence
+        moves then start at the first step, from the Student-t of these
+        moments, instead of halfway through the burn-in; from there on the
+        proposal is fitted to the burn-in as usual. A chain started near
+        the target then mixes from its first steps, and a shorter burn-in
+        serves.
 
     Returns
     -------
@@ -258,6 +268,7 @@ def run_chains(
         blas_order=int(blas_order),
         progress=Progress(verbose) if progress is None else progress,
         keep_log_density=bool(keep_log_density),
+        moments=_check_moments(moments, r),
     )
 
 
@@ -272,6 +283,7 @@ def _run_parallel(
     blas_order,
     progress,
     keep_log_density,
+    moments=None,
 ):
     """Run each chain's ``(log_density, start, start_value, chol, seed)``.
 
@@ -298,6 +310,7 @@ def _run_parallel(
                 chain=c,
                 n_labels=int(getattr(density, "n_labels", 1)),
                 keep_log_density=keep_log_density,
+                moments=moments,
             )
         )
     total = burn_in + n_samples
@@ -372,6 +385,30 @@ def _check_independence(independence):
             "must remain (0 for the random walk alone)"
         )
     return float(independence)
+
+
+def _check_moments(moments, r):
+    """``moments`` as a float mean (r,) and covariance (r, r), or None."""
+    if moments is None:
+        return None
+    try:
+        mean, cov = moments
+    except (TypeError, ValueError):
+        raise ValueError(
+            "moments must be a pair (mean, cov) of the target's mean and "
+            f"covariance, got {moments!r}"
+        ) from None
+    mean = np.asarray(mean, dtype=float)
+    cov = np.atleast_2d(np.asarray(cov, dtype=float))
+    if mean.shape != (r,) or cov.shape != (r, r):
+        raise ValueError(
+            f"moments must be a mean of shape ({r},) and a covariance of shape "
+            f"({r}, {r}) for starts with {r} columns; got shapes {mean.shape} "
+            f"and {cov.shape}"
+        )
+    if not (np.all(np.isfinite(mean)) and np.all(np.isfinite(cov))):
+        raise ValueError("moments must be finite (mean and covariance).")
+    return mean, cov
 
 
 def _check_starts(starts):
