@@ -14,9 +14,21 @@ and the same with the discrepancy roughness capped (``--roughness-cap``),
 then the coverage that a known noise level estimated with ``nu`` degrees of
 freedom would give, ``P(|t_nu| <= 1.96)``, for comparison.
 
+With ``--pure-noise``, module 2 alone (``fit_hyperposterior`` of
+``skmba._hyperposterior``, the default prior) on data that are pure noise around
+a constant (one response, 25 readings, no emulator): the noise variances'
+posterior mean over the true one, and the coverage of new observations
+that adding it gives, ``P(|Z| <= 1.96 sqrt(mean / true))``, with the
+discrepancy prior as it is and practically switched off (``sd_scale``
+1e-3), against the conjugate ideal (a flat mean and a log-uniform noise
+prior, no discrepancy: ``P(|t_24| <= 1.96 sqrt(24 / 22))``). It tells the
+share of the shortfall that the discrepancy prior takes: where the truth
+has no discrepancy, it explains part of the noise.
+
 Usage::
 
     python benchmarks/new_observation_noise.py --case a1 --n-seeds 40 --n-jobs 2
+    python benchmarks/new_observation_noise.py --pure-noise --n-seeds 200 --n-jobs 2
 """
 
 import argparse
@@ -36,6 +48,8 @@ if str(HERE) not in sys.path:
 from validity import N_TEST, Z_LEVEL, cases, held_out_inputs  # noqa: E402
 
 from skmba import ModularBayesCalibrator  # noqa: E402
+from skmba._hyperposterior import fit_hyperposterior  # noqa: E402
+from skmba._hyperprior import Hyperprior  # noqa: E402
 
 
 def run_replicate(name, seed, discrepancy_prior=None):
@@ -64,6 +78,52 @@ def run_replicate(name, seed, discrepancy_prior=None):
     }
 
 
+#: The pure-noise probe: readings, their noise variance (standardised
+#: units, as a 30 dB response) and the mean they vary around.
+PURE_NOISE = {"n": 25, "noise": 1e-3, "mean": 0.3}
+
+
+def pure_noise_replicate(seed, sd_scale):
+    """Module 2 on pure noise: posterior mean and mode of the noise over the
+    true variance."""
+    n, true_var = PURE_NOISE["n"], PURE_NOISE["noise"]
+    rng = np.random.default_rng(seed)
+    X = np.sort(rng.uniform(-1.7, 1.7, n))[:, None]
+    y = PURE_NOISE["mean"] + rng.normal(size=(n, 1)) * np.sqrt(true_var)
+    with threadpoolctl.threadpool_limits(1), warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        draws = fit_hyperposterior(
+            X,
+            y,
+            np.zeros((n, n)),
+            prior=Hyperprior(sd_scale=sd_scale),
+            random_state=seed,
+        )
+    return float(draws.noise_mean[0]) / true_var, float(draws.mode.noise[0]) / true_var
+
+
+def pure_noise(n_seeds, n_jobs):
+    """Print the pure-noise probe (see the module docstring)."""
+    for sd_scale in (Hyperprior().sd_scale, 1e-3):
+        ratios = np.array(
+            Parallel(n_jobs=n_jobs)(
+                delayed(pure_noise_replicate)(seed, sd_scale) for seed in range(n_seeds)
+            )
+        )
+        coverage = np.mean(2 * stats.norm.cdf(Z_LEVEL * np.sqrt(ratios[:, 0])) - 1)
+        print(
+            f"sd_scale {sd_scale:g}: noise posterior mean / true: mean "
+            f"{ratios[:, 0].mean():.3f}, median {np.median(ratios[:, 0]):.3f}; "
+            f"mode / true: median {np.median(ratios[:, 1]):.3f}; new-observation "
+            f"coverage {coverage:.4f} ({n_seeds} seeds)"
+        )
+    nu = PURE_NOISE["n"] - 1
+    ideal = 1 - 2 * stats.t.sf(Z_LEVEL * np.sqrt(nu / (nu - 2)), nu)
+    print(
+        f"conjugate ideal (nu = {nu}): mean {nu / (nu - 2):.3f}, coverage {ideal:.4f}"
+    )
+
+
 def summary_line(label, records):
     med = {k: np.median([r[k] for r in records], axis=0) for k in records[0]}
     cover = np.mean([r["covered"] for r in records])
@@ -89,7 +149,15 @@ def main(argv=None):
         default=3.0,
         help="upper end of the roughness prior of the second run",
     )
+    parser.add_argument(
+        "--pure-noise",
+        action="store_true",
+        help="module 2 alone on pure noise, with and without the discrepancy",
+    )
     args = parser.parse_args(argv)
+    if args.pure_noise:
+        pure_noise(args.n_seeds, args.n_jobs)
+        return
     settings = {
         "default": None,
         f"roughness <= {args.roughness_cap:g}": {
