@@ -263,6 +263,13 @@ def test_nan_log_density_is_an_error():
         ({"burn_in": 1.5}, "burn_in"),
         ({"proposal_cov": np.eye(3)}, "proposal_cov"),
         ({"proposal_cov": -np.eye(1)}, "proposal_cov"),
+        ({"moments": 5.0}, "moments must be a pair"),
+        (
+            {"moments": (np.zeros(2), np.eye(1))},
+            r"moments must be a mean of shape \(1,\)",
+        ),
+        ({"moments": (np.zeros(1), np.eye(2))}, r"covariance of shape \(1, 1\)"),
+        ({"moments": (np.zeros(1), np.full((1, 1), np.nan))}, "moments must be finite"),
     ],
 )
 def test_invalid_arguments(kwargs, match):
@@ -742,24 +749,3 @@ def test_chains_with_moments_are_identical_for_any_n_jobs():
         )
 
     _assert_identical(run(1), run(2))
-
-
-@pytest.mark.parametrize(
-    "moments, match",
-    [
-        (5.0, "must be a pair"),
-        ((np.zeros(3), np.eye(2)), r"mean of shape \(2,\)"),
-        ((np.zeros(2), np.eye(3)), r"covariance of shape \(2, 2\)"),
-        ((np.zeros(2), np.full((2, 2), np.nan)), "must be finite"),
-    ],
-)
-def test_invalid_moments_name_the_argument(moments, match):
-    with pytest.raises(ValueError, match=match):
-        run_chains(
-            standard_normal,
-            np.zeros((2, 2)),
-            n_samples=10,
-            burn_in=10,
-            independence=0.9,
-            moments=moments,
-        )
