@@ -217,7 +217,11 @@ default=None
         moments, instead of halfway through the burn-in; from there on the
         proposal is fitted to the burn-in as usual. A chain started near
         the target then mixes from its first steps, and a shorter burn-in
-        serves.
+        serves. The moments need only be roughly right: on a correlated
+        2-D Gaussian (4 chains of 2000 draws after 300), variances 10
+        times too small gave a bulk ESS above 3800, but 30 times too small
+        or 100 times too large left the chains unmixed (R-hat 1.15-1.19),
+        which the diagnostics report.
 
     Returns
     -------
