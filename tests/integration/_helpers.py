@@ -89,7 +89,13 @@ def check_E_and_I_posterior(cal, data):
     assert corr < -0.5  # only E I is identified: a negative ridge
     assert np.all(cal.rhat_ < 1.05)
     assert cal.theta_samples_.shape == (4000, 2)
-    assert np.all((cal.acceptance_rate_ > 0.1) & (cal.acceptance_rate_ < 0.6))
+    # Nine steps in ten are independence moves, accepted the more often the
+    # closer their Student-t is to the posterior: no upper bound (a random
+    # walk's 0.6 would fail a well-fitted proposal), but the chains must
+    # move and give effective draws (measured on 4.7.3 seeds 0-3:
+    # acceptance 0.36-0.61, bulk ESS 1004-1460 of 4000 draws).
+    assert np.all(cal.acceptance_rate_ > 0.1)
+    assert np.all(cal.ess_ > 400)
     return EI_draws.mean() / np.prod(data.theta_true) - 1
 
 
