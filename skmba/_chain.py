@@ -492,12 +492,15 @@ class Chain:
         block = self._block(log_density, m, self.chol)
         path = np.empty((m, r))
         n_accept = 0
+        # The joint check judges the proposals fitted to the burn-in, not
+        # those of the moments given (see _check_joint).
+        fitted = step >= _INDEPENDENCE_START * self.burn_in
         for i in range(m):
             accepted, alpha = self._step(
                 log_density, block, i, math.exp(0.5 * self.log_scale)
             )
             n_accept += accepted
-            if block.independent[i]:
+            if block.independent[i] and fitted:
                 self.burn_independent += (1, accepted)
             if self.adapt and alpha is not None:
                 self.rw_steps += 1
@@ -556,7 +559,9 @@ class Chain:
         Sampling the label with theta is cheap per step but mixes well only
         where ``p(k | theta)`` changes little over the posterior (the joint
         independence proposal ignores how it changes). When the independence
-        moves of the burn-in so far were accepted less often than
+        moves of the burn-in so far, from the proposals fitted to it (the
+        first ones, of ``moments``, propose labels uniformly and are not
+        counted), were accepted less often than
         :data:`_JOINT_MIN_ACCEPTANCE`, the chain samples the mixture itself
         from here on (every component at each step); the kernel after
         burn-in is then the mixture's, fixed like any other.

@@ -560,14 +560,19 @@ class _GaussianMixture:
         return mean, second - np.outer(mean, mean)
 
 
-@pytest.mark.parametrize("independence", [0.9, 0.0])
-def test_a_labelled_target_is_sampled_with_its_labels(independence):
+@pytest.mark.parametrize(
+    "independence, warm", [(0.9, False), (0.0, False), (0.9, True)]
+)
+def test_a_labelled_target_is_sampled_with_its_labels(independence, warm):
     """Theta and the label together (data augmentation): the draws of theta
     follow the mixture, each label is a draw of ``p(k | theta)``, and the
     stored log density is the mixture's. Without independence moves, Gibbs
-    updates of the label keep the chains moving between components."""
+    updates of the label keep the chains moving between components. With
+    ``moments`` (here off the target's), the first independence moves
+    propose the labels uniformly."""
     target = _GaussianMixture()
     starts = np.random.default_rng(0).normal(size=(4, 2))
+    mean, cov = target.moments()
     result = run_chains(
         target,
         starts,
@@ -575,8 +580,8 @@ def test_a_labelled_target_is_sampled_with_its_labels(independence):
         burn_in=1000,
         independence=independence,
         random_state=1,
+        moments=(mean + 0.3, 2.0 * cov) if warm else None,
     )
-    mean, cov = target.moments()
     draws = result.pooled
     se = np.sqrt(np.diag(cov) / np.min(result.ess))
     assert np.all(np.abs(draws.mean(axis=0) - mean) < 4 * se)
