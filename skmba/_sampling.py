@@ -175,7 +175,8 @@ def run_chains(
         fitted to the chain's burn-in (:mod:`skmba._chain`), instead of a
         random-walk move. Independence moves start halfway through the
         burn-in, once the latest half of the burn-in so far holds
-        ``max(10, 2 r)`` accepted moves (without burn-in, never). 0.9
+        ``max(10, 2 r)`` accepted moves (without burn-in, never; with
+        ``moments``, at the first step). 0.9
         makes successive draws of a unimodal target nearly independent, at
         one evaluation per step.
     n_jobs : int, default=None
