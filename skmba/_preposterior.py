@@ -282,6 +282,9 @@ def _fit_module2_draws(ctx, rep, responses):
             noise=ctx.module2["noise"],
             n_restarts=ctx.module2["n_restarts"],
             random_state=seed,
+            # The designer predicts no new observation: the noise
+            # variances' posterior mean (512 evaluations) would go unused.
+            noise_mean=False,
         )
 
     draws = hyperposterior(ctx.integrated.restrict(idx), first)

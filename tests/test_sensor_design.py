@@ -11,6 +11,7 @@ from scipy import linalg, stats
 from sklearn.base import clone
 from sklearn.gaussian_process.kernels import RBF
 
+import skmba._hyperposterior
 from skmba import ModularBayesCalibrator, PreposteriorDesigner
 from skmba._preposterior import criterion_value
 from skmba.datasets import make_cantilever
@@ -242,6 +243,25 @@ def test_propagate_changes_module_2_and_the_data_priors_only(small, propagated):
         plug_in = designer(data.prior, n_mc=4).fit(X, data.y_sim)
     np.testing.assert_array_equal(d.theta_draws_, plug_in.theta_draws_)
     assert not np.allclose(d.scores_, plug_in.scores_)
+
+
+def test_propagate_skips_the_noise_posterior_mean(small, monkeypatch):
+    """The designer predicts no new observation: its module-2 fits leave out
+    the noise variances' posterior mean (most of a small fit's time)."""
+    calls = []
+    monkeypatch.setattr(
+        skmba._hyperposterior,
+        "_noise_posterior_mean",
+        lambda *args, **kwargs: calls.append(args),
+    )
+    data, X = small
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        fitted = designer(
+            data.prior, discrepancy_uncertainty="propagate", n_mc=2, fast=False
+        ).fit(X, data.y_sim)
+    assert np.all(np.isfinite(fitted.scores_))
+    assert calls == []
 
 
 def test_propagate_full_subset_is_the_same_fit_fast_or_not(small, propagated):
