@@ -222,7 +222,8 @@ default=None
         2-D Gaussian (4 chains of 2000 draws after 300), variances 10
         times too small gave a bulk ESS above 3800, but 30 times too small
         or 100 times too large left the chains unmixed (R-hat 1.15-1.19),
-        which the diagnostics report.
+        which the diagnostics report. A covariance that is not positive
+        definite is not used (the moves then start halfway, as without).
 
     Returns
     -------
@@ -403,7 +404,7 @@ def _check_moments(moments, r):
             "moments must be a pair (mean, cov) of the target's mean and "
             f"covariance, got {moments!r}"
         ) from None
-    mean = np.asarray(mean, dtype=float)
+    mean = np.atleast_1d(np.asarray(mean, dtype=float))
     cov = np.atleast_2d(np.asarray(cov, dtype=float))
     if mean.shape != (r,) or cov.shape != (r, r):
         raise ValueError(
