@@ -754,3 +754,18 @@ def test_chains_with_moments_are_identical_for_any_n_jobs():
         )
 
     _assert_identical(run(1), run(2))
+
+
+def test_moments_with_a_singular_covariance_are_not_used():
+    def run(moments):
+        return _mixed(
+            standard_normal,
+            np.zeros((2, 2)),
+            0.9,
+            3,
+            n_samples=200,
+            burn_in=200,
+            moments=moments,
+        )
+
+    _assert_identical(run((np.zeros(2), np.zeros((2, 2)))), run(None))
