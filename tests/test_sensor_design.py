@@ -219,14 +219,21 @@ def test_fast_and_full_rankings_agree(small, exhaustive):
     assert rho >= 0.8, rho
 
 
-@pytest.fixture(scope="module")
-def propagated(small):
+def fit_propagated(small, **params):
+    """A designer with ``discrepancy_uncertainty="propagate"`` (n_mc=4 unless
+    given) fitted on the small cantilever, its warnings silenced."""
     data, X = small
+    params = {"n_mc": 4, **params}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        return designer(data.prior, discrepancy_uncertainty="propagate", n_mc=4).fit(
+        return designer(data.prior, discrepancy_uncertainty="propagate", **params).fit(
             X, data.y_sim
         )
+
+
+@pytest.fixture(scope="module")
+def propagated(small):
+    return fit_propagated(small)
 
 
 def test_propagate_changes_module_2_and_the_data_priors_only(small, propagated):
@@ -254,12 +261,7 @@ def test_propagate_skips_the_noise_posterior_mean(small, monkeypatch):
         "_noise_posterior_mean",
         lambda *args, **kwargs: calls.append(args),
     )
-    data, X = small
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        fitted = designer(
-            data.prior, discrepancy_uncertainty="propagate", n_mc=2, fast=False
-        ).fit(X, data.y_sim)
+    fitted = fit_propagated(small, n_mc=2, fast=False)
     assert np.all(np.isfinite(fitted.scores_))
     assert calls == []
 
@@ -269,24 +271,14 @@ def test_propagate_full_subset_is_the_same_fit_fast_or_not(small, propagated):
     fits the very same data with the same seed: the same scores, to the
     round-off of factoring the subset along the prefix tree (fast) or on
     its own (fast=False)."""
-    data, X = small
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        full = designer(
-            data.prior, discrepancy_uncertainty="propagate", n_mc=4, fast=False
-        ).fit(X, data.y_sim)
+    full = fit_propagated(small, fast=False)
     np.testing.assert_allclose(full.scores_[-1], propagated.scores_[-1], rtol=1e-7)
     # Smaller subsets are fitted on their own responses: other estimates.
     assert not np.allclose(full.scores_[:-1], propagated.scores_[:-1])
 
 
 def test_propagate_same_result_for_any_n_jobs(small, propagated):
-    data, X = small
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        other = designer(
-            data.prior, discrepancy_uncertainty="propagate", n_mc=4, n_jobs=2
-        ).fit(X, data.y_sim)
+    other = fit_propagated(small, n_jobs=2)
     np.testing.assert_array_equal(other.scores_, propagated.scores_)
 
 
