@@ -64,7 +64,10 @@ the whole run to one BLAS thread, for a machine shared with other jobs).
 
 Run with ``python benchmarks/bench_calibration.py`` (several minutes). Add
 ``--quick`` for a smoke run (about a quarter of the sizes, 4 chains of 500
-draws); its targets are not meant to be met.
+draws); its targets are not meant to be met. ``--fast-seeds N`` runs only
+the fast 4.7.3 default fit, for calibrator seeds 0 to N - 1 (with
+``--fast-length draws/burn-in`` another chain length than ``FAST``), and
+prints the spread of its time, ESS and R-hat over the seeds.
 """
 
 import argparse
@@ -165,9 +168,10 @@ THESIS_SETUP_BEFORE = 21.6
 ESS_BEFORE = 2200
 #: The chain length of the fast runs: enough for >= 1000 ESS per parameter.
 #: Under the default (propagate), calibrator seeds 0-29 on this data gave a
-#: bulk ESS of 1042-1922 (median 1450) and R-hat <= 1.0093 with it, in
-#: 3.7-4.7 s; 1000 draws after 500 gave 1192-2168 in 5.1-5.4 s, 750 after
-#: 250 an R-hat above 1.01 on one of 10 seeds.
+#: bulk ESS of 1042-1922 (median 1476) and R-hat <= 1.0093 with it, in
+#: 3.8-4.7 s; 1000 draws after 500 gave 1192-2168 in 5.1-5.4 s, 750 after
+#: 250 an R-hat above 1.01 on one of 10 seeds (``--fast-seeds 30``, and
+#: ``--fast-length 1000/500`` for the others).
 FAST = {"n_samples": 800, "burn_in": 300}
 
 
@@ -571,9 +575,67 @@ def main():
         default=None,
         help="limit BLAS to this many threads for the whole run (default: as they are)",
     )
+    parser.add_argument(
+        "--fast-seeds",
+        type=int,
+        default=0,
+        help="only the fast 4.7.3 default fit, for calibrator seeds 0..N-1 "
+        "(how FAST's chain length was chosen)",
+    )
+    parser.add_argument(
+        "--fast-length",
+        default=None,
+        help="with --fast-seeds: draws/burn-in, e.g. 1000/500 (default: FAST)",
+    )
     args = parser.parse_args()
     with threadpoolctl.threadpool_limits(args.blas_threads):
-        run(args.quick, args.blas_threads)
+        if args.fast_seeds:
+            fast = FAST
+            if args.fast_length:
+                n_samples, burn_in = (int(v) for v in args.fast_length.split("/"))
+                fast = {"n_samples": n_samples, "burn_in": burn_in}
+            fast_seeds(args.fast_seeds, fast)
+        else:
+            run(args.quick, args.blas_threads)
+
+
+def fast_seeds(n_seeds, fast):
+    """The fast 4.7.3 default fit for calibrator seeds 0..n_seeds-1, on the
+    same data: the spread of its time, bulk ESS and R-hat over seeds."""
+    print_environment()
+    start_workers()
+    data = make_cantilever(
+        n_simulations=170, n_observations=70, parameters=("E", "I"), random_state=0
+    )
+    rows = []
+    for seed in range(n_seeds):
+        cal = ModularBayesCalibrator(
+            prior=data.prior, n_chains=4, n_jobs=-1, random_state=seed, **fast
+        )
+        elapsed, _ = fit_recording_warnings(
+            cal,
+            data.X_obs,
+            data.y_obs,
+            X_sim=data.X_sim,
+            theta_sim=data.theta_sim,
+            y_sim=data.y_sim,
+        )
+        rows.append((elapsed, cal.ess_.min(), cal.rhat_.max(), cal.theta_mean_[0]))
+        print(
+            f"  seed {seed:2d}: {elapsed:.2f} s, smallest bulk ESS "
+            f"{cal.ess_.min():.0f}, largest R-hat {cal.rhat_.max():.4f}",
+            flush=True,
+        )
+    t, ess, rhat, mean_E = np.array(rows).T
+    print(
+        f"4 chains x {fast['n_samples']} draws after {fast['burn_in']}, "
+        f"{n_seeds} seeds: time {t.min():.2f}-{t.max():.2f} s (median "
+        f"{np.median(t):.2f}); smallest bulk ESS {ess.min():.0f} (median "
+        f"{np.median(ess):.0f}); largest R-hat {rhat.max():.4f}; seeds with "
+        f"ESS >= 1000, R-hat <= 1.01 and < 5 s: "
+        f"{np.sum((ess >= 1000) & (rhat <= 1.01) & (t < 5.0))}/{n_seeds}; "
+        f"posterior mean of E {mean_E.mean():.0f} +- {mean_E.std():.0f}"
+    )
 
 
 def run(quick, blas_limit):
