@@ -25,9 +25,22 @@ prior, no discrepancy: ``P(|t_24| <= 1.96 sqrt(24 / 22))``). It tells the
 share of the shortfall that the discrepancy prior takes: where the truth
 has no discrepancy, it explains part of the noise.
 
+With ``--ideal``, no fits: on the seeds of ``--case``, the interval of a
+method that knows the reality and estimates only the noise (the Student-t
+posterior predictive, exact at 95 % over seeds) and how many of the
+validity suite's seeded fresh observations it holds: the "one draw"
+estimate's own luck, against which the calibrator's is read.
+
+With ``--emulator`` (a1 and a2, whose reality is the model at theta*):
+the emulator's error at the held-out inputs and theta*, and its plug-in
+sd, over the noise sd: whether module 1's plug-in hyperparameters leave a
+share of the residual unexplained.
+
 Usage::
 
     python benchmarks/new_observation_noise.py --case a1 --n-seeds 40 --n-jobs 2
+    python benchmarks/new_observation_noise.py --case a1 --n-seeds 50 --emulator
+    python benchmarks/new_observation_noise.py --case a1 --n-seeds 50 --ideal
     python benchmarks/new_observation_noise.py --pure-noise --n-seeds 200 --n-jobs 2
 """
 
@@ -45,7 +58,15 @@ HERE = Path(__file__).resolve().parent
 if str(HERE) not in sys.path:
     sys.path.insert(0, str(HERE))
 
-from validity import N_TEST, Z_LEVEL, cases, held_out_inputs  # noqa: E402
+from validity import (  # noqa: E402
+    LEVEL,
+    N_TEST,
+    Z_LEVEL,
+    cases,
+    fresh_observations,
+    held_out_inputs,
+    observation_coverage,
+)
 
 from skmba import ModularBayesCalibrator  # noqa: E402
 from skmba._hyperposterior import fit_hyperposterior  # noqa: E402
@@ -65,13 +86,12 @@ def run_replicate(name, seed, discrepancy_prior=None):
                 y_sim=case.y_sim)  # fmt: skip
         X_test = held_out_inputs(spec.X_bounds, N_TEST)
         truth = case.reality_fn(X_test)
-        rng = np.random.default_rng([int(seed), 99])  # as validity.py
-        y_new = truth + rng.normal(size=truth.shape) * case.noise_sd
         mean, std = cal.predict(X_test, return_std=True)
         _, std_reality = cal.predict_reality(X_test, return_std=True)
     true_var = case.noise_sd**2
+    covered = observation_coverage(mean, std, truth, case.noise_sd)
     return {
-        "covered": float(np.mean(np.abs(y_new - mean) <= Z_LEVEL * std)),
+        "covered": float(np.mean(covered)),
         "mode_ratio": np.asarray(cal.noise_) / true_var,
         "predictive_ratio": np.median(std**2 - std_reality**2, axis=0) / true_var,
         "roughness": np.atleast_1d(cal.discrepancy_kernel_.roughness),
@@ -135,6 +155,70 @@ def summary_line(label, records):
     )
 
 
+#: The cases whose reality is the model at theta* (the emulator check).
+MODEL_IS_REALITY = ("a1", "a2")
+
+
+def emulator_replicate(name, seed):
+    """The emulator at the held-out inputs and theta*, against the model.
+
+    For a case whose reality is the model at theta* (``MODEL_IS_REALITY``):
+    the rms of the emulator's error and of its plug-in sd (module 1,
+    ``model_gp_`` on the standardised inputs), each over the noise sd, and
+    the rms of their ratio, per response.
+    """
+    if name not in MODEL_IS_REALITY:
+        raise ValueError(f"--emulator needs one of {MODEL_IS_REALITY}, got {name!r}")
+    spec = cases()[name]
+    case = spec.build(seed)
+    with threadpoolctl.threadpool_limits(1), warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        cal = ModularBayesCalibrator(prior=case.prior, random_state=seed)
+        cal.fit(case.X, case.y, X_sim=case.X_sim, theta_sim=case.theta_sim,
+                y_sim=case.y_sim)  # fmt: skip
+    X_test = held_out_inputs(spec.X_bounds, N_TEST)
+    theta = np.tile(np.ravel(case.theta_true), (len(X_test), 1))
+    offset = np.r_[cal.X_mean_, cal.theta_offset_]
+    scale = np.r_[cal.X_scale_, cal.theta_scale_]
+    mean, sd = cal.model_gp_.predict((np.c_[X_test, theta] - offset) / scale,
+                                     return_std=True)  # fmt: skip
+    error = mean * cal.y_scale_ + cal.y_mean_ - case.reality_fn(X_test)
+    sd = sd * cal.y_scale_
+
+    def rms(a):
+        return np.sqrt(np.mean(a**2, axis=0))
+
+    return rms(error) / case.noise_sd, rms(sd) / case.noise_sd, rms(error / sd)
+
+
+def ideal_reference(name, n_seeds):
+    """What a method that knows the reality and estimates only the noise gets.
+
+    Per seed of case ``name``: the Student-t interval ``truth +- t s`` of
+    ``level``, with ``s^2`` the mean square of the field data's noise
+    (``nu`` = readings degrees of freedom). Under a log-uniform noise prior
+    it is the exact posterior predictive interval, so over seeds it holds
+    new observations at exactly ``level``. Returns its expected coverage
+    (mean over seeds of the closed form) and the share of the suite's
+    seeded fresh observations (one per held-out input, as the "one draw"
+    estimate of ``validity.py``) it holds, per response.
+    """
+    spec = cases()[name]
+    expected, drawn = [], []
+    for seed in range(n_seeds):
+        case = spec.build(seed)
+        noise = (case.y - case.reality_fn(case.X)) / case.noise_sd
+        nu = np.sum(np.isfinite(noise), axis=0)
+        s = np.sqrt(np.nanmean(noise**2, axis=0))
+        half = stats.t.ppf(0.5 + LEVEL / 2, nu) * s * case.noise_sd
+        truth = case.reality_fn(held_out_inputs(spec.X_bounds, N_TEST))
+        sd = np.broadcast_to(case.noise_sd, truth.shape)
+        expected.append(observation_coverage(truth, half / Z_LEVEL, truth, sd))
+        y_new = fresh_observations(truth, case.noise_sd, seed)
+        drawn.append(np.abs(y_new - truth) <= half)
+    return np.mean(expected, axis=(0, 1)), np.mean(drawn, axis=(0, 1))
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(
         description=__doc__.split("\n\n")[0],
@@ -150,6 +234,16 @@ def main(argv=None):
         help="upper end of the roughness prior of the second run",
     )
     parser.add_argument(
+        "--emulator",
+        action="store_true",
+        help="the emulator's error and sd at theta* (a1, a2)",
+    )
+    parser.add_argument(
+        "--ideal",
+        action="store_true",
+        help="the known-reality t-interval on the case's seeds (no fits)",
+    )
+    parser.add_argument(
         "--pure-noise",
         action="store_true",
         help="module 2 alone on pure noise, with and without the discrepancy",
@@ -157,6 +251,31 @@ def main(argv=None):
     args = parser.parse_args(argv)
     if args.pure_noise:
         pure_noise(args.n_seeds, args.n_jobs)
+        return
+    if args.emulator:
+        out = np.array(
+            Parallel(n_jobs=args.n_jobs)(
+                delayed(emulator_replicate)(args.case, seed)
+                for seed in range(args.n_seeds)
+            )
+        )
+        error, sd, z = np.median(out, axis=0)
+        print(
+            f"{args.case}, {args.n_seeds} seeds, emulator at theta* (medians over "
+            f"seeds, per response): rms error / noise sd {np.round(error, 4)}; "
+            f"rms plug-in sd / noise sd {np.round(sd, 4)}; rms error / sd "
+            f"{np.round(z, 3)}; largest rms error / noise sd "
+            f"{np.round(out[:, 0].max(axis=0), 3)}"
+        )
+        return
+    if args.ideal:
+        expected, drawn = ideal_reference(args.case, args.n_seeds)
+        print(
+            f"{args.case}, {args.n_seeds} seeds, known reality, t-interval: expected "
+            f"coverage {np.round(expected, 4)} (mean {expected.mean():.4f}); "
+            f"share of the one-draw fresh observations {np.round(drawn, 4)} "
+            f"(mean {drawn.mean():.4f})"
+        )
         return
     settings = {
         "default": None,

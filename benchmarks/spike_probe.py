@@ -46,7 +46,14 @@ HERE = Path(__file__).resolve().parent
 if str(HERE) not in sys.path:
     sys.path.insert(0, str(HERE))
 
-from validity import LEVEL, N_TEST, Z_LEVEL, cases, held_out_inputs  # noqa: E402
+from validity import (  # noqa: E402
+    LEVEL,
+    N_TEST,
+    Z_LEVEL,
+    cases,
+    held_out_inputs,
+    observation_coverage,
+)
 
 from skmba import ModularBayesCalibrator  # noqa: E402
 
@@ -91,8 +98,6 @@ def run_replicate(name, seed, pi0):
     case = spec.build(seed)
     X_test = held_out_inputs(spec.X_bounds, N_TEST)
     truth = case.reality_fn(X_test)
-    rng = np.random.default_rng([int(seed), 99])  # as validity.py
-    y_new = truth + rng.normal(size=truth.shape) * case.noise_sd
     fits = {}
     with threadpoolctl.threadpool_limits(1), warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -121,13 +126,18 @@ def run_replicate(name, seed, pi0):
             [slab["mean"], spike["mean"]], [slab["sd"], spike["sd"]], weights
         )
         out[label] = {"covered": lo <= t <= hi, "z": (mean - t) / sd}
-        for what, target in (("reality", truth), ("obs", y_new)):
+        for what in ("reality", "obs"):
             m, s = mixed_normal(
                 [slab[what][0], spike[what][0]],
                 [slab[what][1], spike[what][1]],
                 weights,
             )
-            out[label][what] = float(np.mean(np.abs(target - m) <= Z_LEVEL * s))
+            covered = (
+                np.abs(truth - m) <= Z_LEVEL * s
+                if what == "reality"
+                else observation_coverage(m, s, truth, case.noise_sd)
+            )
+            out[label][what] = float(np.mean(covered))
     return out
 
 
