@@ -2,7 +2,7 @@
 
 The SBC cases of issue 13: per seed, theta* from the case's prior, the
 discrepancy and noise hyperparameters from the calibrator's documented
-default prior (:class:`skmba._hyperprior.Hyperprior`), one discrepancy
+default prior (:class:`skmba.priors._hyperprior.Hyperprior`), one discrepancy
 function from the Gaussian process they define, and the noise. The field
 data are then distributed exactly as the calibrator's default model says,
 so that the ranks of theta* among its posterior draws are uniform when the
@@ -40,8 +40,8 @@ from _validity_cases import (
 )
 from scipy import interpolate
 
-from skmba._hyperprior import Hyperprior
 from skmba.datasets import make_cantilever
+from skmba.priors._hyperprior import Hyperprior
 
 GRID = 400  # points of the discrepancy draw over the design variable's range
 

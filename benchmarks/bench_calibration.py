@@ -82,10 +82,10 @@ import threadpoolctl
 from joblib import Parallel, delayed
 from scipy import linalg, stats
 
-import skmba._posterior
+import skmba.calibration._module3_posterior
 from skmba import ModularBayesCalibrator
-from skmba._linalg import LOG_2PI
-from skmba._regression import regression_basis
+from skmba._core.linalg import LOG_2PI
+from skmba._core.regression import regression_basis
 from skmba.datasets import make_cantilever
 
 THESIS_TAMAR_HOURS = 6.38
@@ -182,12 +182,12 @@ def random_walk_only():
     The adaptive random walk that the chains ran before independence moves
     were added (without the delayed-acceptance screen of those chains).
     """
-    saved = skmba._posterior.INDEPENDENCE
-    skmba._posterior.INDEPENDENCE = 0.0
+    saved = skmba.calibration._module3_posterior.INDEPENDENCE
+    skmba.calibration._module3_posterior.INDEPENDENCE = 0.0
     try:
         yield
     finally:
-        skmba._posterior.INDEPENDENCE = saved
+        skmba.calibration._module3_posterior.INDEPENDENCE = saved
 
 
 def cantilever_fit(

@@ -25,7 +25,7 @@ With ``--large`` (issue 15, large emulators) it prints instead:
    response, anisotropic RBF, the same restarts, ``normalize_y=True``) at
    N = 500, 1000, 2000.
 
-Every run starts with the threads line of ``skmba._threads``.
+Every run starts with the threads line of ``skmba._core.threads``.
 
 Run with ``python benchmarks/bench_gp.py`` (add ``--quick`` for a smaller
 smoke run, ``--large`` for the large emulators, ``--ratios`` for item 5
@@ -46,9 +46,9 @@ from sklearn.gaussian_process.kernels import RBF
 from sklearn.metrics import r2_score
 
 from skmba import MultiResponseGP
-from skmba._gp_search import correlation
-from skmba._likelihood import NoiseFreeLikelihood
-from skmba._threads import blas_threads, describe_threads
+from skmba._core.threads import blas_threads, describe_threads
+from skmba.gp._likelihood import NoiseFreeLikelihood
+from skmba.gp._search import correlation
 from skmba.kernels import Gauss
 
 

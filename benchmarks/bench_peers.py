@@ -21,10 +21,10 @@ given), the bulk ESS and the split R-hat of E and I, the acceptance rate, the
 smallest ESS per second, the posterior mean and sd of E, I and E*I against
 the truth, and the warnings raised; then the ratio of the smallest ESS per
 second, skmba / surmise (the goal: >= 1). Both packages' ESS and R-hat come
-from the same functions, ``skmba._diagnostics.ess_bulk`` and ``split_rhat``
+from the same functions, ``skmba.mcmc._diagnostics.ess_bulk`` and ``split_rhat``
 (skmba's draws as its 4 chains, surmise's as one chain ``draws[None, :]``
 after its burn-in; both functions split every chain in halves). The thread
-settings are printed first (``skmba._threads.describe_threads``).
+settings are printed first (``skmba._core.threads.describe_threads``).
 
 **Same simulations, same field data, different x layout.** skmba takes the
 170 runs of ``make_cantilever`` as they are: run i at its own force F_i and
@@ -92,9 +92,9 @@ from pathlib import Path
 import numpy as np
 import threadpoolctl
 
-from skmba._diagnostics import ess_bulk, split_rhat
-from skmba._threads import describe_threads
+from skmba._core.threads import describe_threads
 from skmba.datasets import make_cantilever
+from skmba.mcmc._diagnostics import ess_bulk, split_rhat
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_calibration import fit_cantilever

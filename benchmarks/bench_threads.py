@@ -1,4 +1,4 @@
-"""The BLAS thread policy (``skmba._threads``), measured.
+"""The BLAS thread policy (``skmba._core.threads``), measured.
 
 Prints, from one run in one process, with the thread settings it ran with:
 
@@ -27,9 +27,9 @@ from scipy import linalg
 from sklearn.metrics import r2_score
 from threadpoolctl import threadpool_limits
 
-import skmba._gp
+import skmba.gp._estimator
 from skmba import MultiResponseGP
-from skmba._threads import SMALL_ORDER, describe_threads, process_threads
+from skmba._core.threads import SMALL_ORDER, describe_threads, process_threads
 
 
 def best_time(fn, repeat=3):
@@ -152,12 +152,12 @@ def noisy_section(n, q):
             return MultiResponseGP(noise=True, random_state=0).fit(X, Y)
 
     t_policy = best_time(run, repeat=1)[0]
-    policy = skmba._gp.blas_threads
-    skmba._gp.blas_threads = _AllThreads()
+    policy = skmba.gp._estimator.blas_threads
+    skmba.gp._estimator.blas_threads = _AllThreads()
     try:
         t_all = best_time(run, repeat=1)[0]
     finally:
-        skmba._gp.blas_threads = policy
+        skmba.gp._estimator.blas_threads = policy
     print(
         f"3. noisy fit N={n}, q={q}: policy {t_policy:.2f} s, all threads on "
         f"everything {t_all:.2f} s, ratio {t_all / t_policy:.2f}"

@@ -17,7 +17,7 @@ Usage::
 
     python benchmarks/missing_data.py --cases a1,b1 --n-seeds 40 --n-jobs 2
 
-``tests/test_missing_data.py`` runs a fixed-seed subset.
+``tests/calibration/test_missing_data.py`` runs a fixed-seed subset.
 """
 
 import argparse

@@ -15,15 +15,14 @@ then the coverage that a known noise level estimated with ``nu`` degrees of
 freedom would give, ``P(|t_nu| <= 1.96)``, for comparison.
 
 With ``--pure-noise``, module 2 alone (``fit_hyperposterior`` of
-``skmba._hyperposterior``, the default prior) on data that are pure noise around
-a constant (one response, 25 readings, no emulator): the noise variances'
-posterior mean over the true one, and the coverage of new observations
-that adding it gives, ``P(|Z| <= 1.96 sqrt(mean / true))``, with the
-discrepancy prior as it is and practically switched off (``sd_scale``
-1e-3), against the conjugate ideal (a flat mean and a log-uniform noise
-prior, no discrepancy: ``P(|t_24| <= 1.96 sqrt(24 / 22))``). It tells the
-share of the shortfall that the discrepancy prior takes: where the truth
-has no discrepancy, it explains part of the noise.
+``skmba.calibration._module2_posterior``, the default prior) on data that are pure noise
+around a constant (one response, 25 readings, no emulator): the noise variances'
+posterior mean over the true one, and the coverage of new observations that adding it
+gives, ``P(|Z| <= 1.96 sqrt(mean / true))``, with the discrepancy prior as it is and
+practically switched off (``sd_scale`` 1e-3), against the conjugate ideal (a flat mean
+and a log-uniform noise prior, no discrepancy: ``P(|t_24| <= 1.96 sqrt(24 / 22))``). It
+tells the share of the shortfall that the discrepancy prior takes: where the truth has
+no discrepancy, it explains part of the noise.
 
 With ``--ideal``, no fits: on the seeds of ``--case``, the interval of a
 method that knows the reality and estimates only the noise (the Student-t
@@ -69,8 +68,8 @@ from validity import (  # noqa: E402
 )
 
 from skmba import ModularBayesCalibrator  # noqa: E402
-from skmba._hyperposterior import fit_hyperposterior  # noqa: E402
-from skmba._hyperprior import Hyperprior  # noqa: E402
+from skmba.calibration._module2_posterior import fit_hyperposterior  # noqa: E402
+from skmba.priors._hyperprior import Hyperprior  # noqa: E402
 
 
 def run_replicate(name, seed, discrepancy_prior=None):

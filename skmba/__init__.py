@@ -11,9 +11,9 @@ Examples
 ['ModularBayesCalibrator', 'MultiResponseGP', 'PreposteriorDesigner']
 """
 
-from skmba._calibration import ModularBayesCalibrator
-from skmba._gp import MultiResponseGP
-from skmba._sensor_design import PreposteriorDesigner
+from skmba.calibration import ModularBayesCalibrator
+from skmba.gp import MultiResponseGP
+from skmba.sensor_design import PreposteriorDesigner
 
 __version__ = "0.1.0.dev0"
 

@@ -354,7 +354,7 @@ def _report_posterior(cal, data):
 
     Returns the 95 % credible interval of E.
     """
-    from skmba._identifiability import IDENTIFIABILITY_THRESHOLD
+    from skmba.calibration._module3_identifiability import IDENTIFIABILITY_THRESHOLD
 
     samples = cal.theta_samples_[:, 0]
     interval = np.quantile(samples, [0.025, 0.975])

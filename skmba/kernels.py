@@ -86,7 +86,7 @@ any kernel, including products with scikit-learn kernels.
 import numpy as np
 from sklearn.gaussian_process.kernels import Hyperparameter, Kernel
 
-from skmba._dace import DACECorrelation, ExponentialProfile
+from skmba._core.dace import DACECorrelation, ExponentialProfile
 
 __all__ = [
     "Cubic",

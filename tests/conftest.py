@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from skmba import MultiResponseGP
-from skmba._emulator import Emulator
-from skmba._global_model import GlobalModel
-from skmba._regression import regression_basis
+from skmba._core.regression import regression_basis
+from skmba.calibration._module1_emulator import Emulator
+from skmba.calibration._module3_likelihood import GlobalModel
 from skmba.kernels import Exp, Gauss
 
 

@@ -33,7 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from skmba._validation import check_count
+from skmba._core.validation import check_count
 from skmba.datasets._cantilever_model import (
     RESPONSE_UNITS,
     RESPONSES,

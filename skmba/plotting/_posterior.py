@@ -20,7 +20,6 @@ import numbers
 import numpy as np
 from sklearn.exceptions import NotFittedError
 
-from skmba._priors import GaussianPrior, check_prior
 from skmba.plotting._common import (
     axes_grid,
     axis_label,
@@ -36,6 +35,7 @@ from skmba.plotting._draws import (
     posterior_chains,
     prior_draws,
 )
+from skmba.priors._theta import GaussianPrior, check_prior
 
 __all__ = ["plot_posterior"]
 

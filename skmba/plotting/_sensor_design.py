@@ -22,7 +22,7 @@ import textwrap
 import numpy as np
 from sklearn.exceptions import NotFittedError
 
-from skmba._columns import response_index
+from skmba._core.columns import response_index
 from skmba.plotting._common import (
     import_pyplot,
     labels,
@@ -381,7 +381,7 @@ def _best_of_spread_sizes(subsets, scores):
 def _by_index(subsets, names, q):
     """``subsets`` with each response name replaced by its 0-based index.
 
-    Names are resolved by :func:`~skmba._columns.response_index` against
+    Names are resolved by :func:`~skmba._core.columns.response_index` against
     ``names`` (the designer's ``response_names_``, or the ``names`` given
     with plain scores, when ``q`` is None); integers are left to the
     caller's checks.

@@ -18,7 +18,7 @@ Examples
 import numpy as np
 from sklearn.exceptions import NotFittedError
 
-from skmba._diagnostics import split_rhat
+from skmba.mcmc._diagnostics import split_rhat
 from skmba.plotting._common import (
     axes_grid,
     axis_label,

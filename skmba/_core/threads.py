@@ -1,0 +1,195 @@
+"""BLAS threads: the one policy of the package.
+
+Every dense computation of skmba runs under :func:`blas_threads`, which
+decides how many BLAS threads it may use from two facts:
+
+* the **order** of its largest matrix. Below :data:`SMALL_ORDER` a second
+  thread only adds synchronisation (and numpy and scipy each bring their
+  own OpenBLAS pool, whose idle threads spin while the other works), so such
+  work runs on one thread. It is also what makes results bit-identical for
+  any ``n_jobs``: OpenBLAS's Cholesky factor of a larger matrix changes in
+  its last bits with the number of threads (measured here at order 400, not
+  at 100), and a Metropolis-Hastings chain or an optimiser turns last bits
+  into another path.
+* **how many tasks run at once.** Work in the calling process uses the
+  threads the process started with (all cores unless the user, or joblib's
+  loky worker, set ``OMP_NUM_THREADS``/``OPENBLAS_NUM_THREADS``); a task run
+  by joblib with ``n_jobs`` workers gets ``cpu_count() // n_workers`` of
+  them, so that workers x threads does not oversubscribe the machine.
+
+Nothing here limits threads globally: the limit holds inside the ``with``
+block only.
+
+Examples
+--------
+>>> from skmba._core.threads import SMALL_ORDER, blas_threads, thread_budget
+>>> with blas_threads(SMALL_ORDER - 1):
+...     pass  # one BLAS thread in here
+>>> thread_budget(n_jobs=1) >= 1
+True
+"""
+
+import os
+from contextlib import contextmanager
+
+from joblib import cpu_count
+from threadpoolctl import threadpool_info, threadpool_limits
+
+from skmba._core.linalg import n_workers
+
+#: Matrices of lower order than this are handled on one BLAS thread.
+#: Measured on two cores (``benchmarks/bench_threads.py``, repeated runs):
+#: a Cholesky factorisation, a triangular solve with 8 right-hand sides and
+#: their product gain 1.5x from a second thread at order 1000-4000 and
+#: anything from 0.4x to 2.9x at 200-600 (OpenBLAS's threading jumps
+#: between runs there); one MultiResponseGP log-likelihood with its
+#: gradient, where elementwise work weighs as much as the factorisation,
+#: loses 2-17 % at N = 1000-2000 and gains 1.2x at 3000, 1.3-1.7x at 4000;
+#: a noisy fit at N = 400 with every thread on is 10-12x slower (numpy's
+#: and scipy's OpenBLAS pools spin against each other).
+SMALL_ORDER = 2500
+
+
+def _blas_threads_now():
+    """The largest thread count of the loaded BLAS libraries (>= 1)."""
+    counts = [
+        info["num_threads"]
+        for info in threadpool_info()
+        if info["user_api"] == "blas" and info.get("num_threads")
+    ]
+    return max(counts, default=1)
+
+
+# The threads this process's BLAS started with, read once at import: the
+# machine's cores, or what OMP_NUM_THREADS/OPENBLAS_NUM_THREADS (set by the
+# user, or by joblib's loky backend in its workers) allow.
+_PROCESS_THREADS = (os.getpid(), _blas_threads_now())
+
+
+def process_threads():
+    """BLAS threads this process may use: what its BLAS started with.
+
+    Read when :mod:`skmba._core.threads` is first imported in the process (in a
+    joblib worker, that is the worker's own share).
+
+    Examples
+    --------
+    >>> process_threads() >= 1
+    True
+    """
+    pid, threads = _PROCESS_THREADS
+    return threads if pid == os.getpid() else _blas_threads_now()
+
+
+def thread_budget(n_jobs=None):
+    """BLAS threads for one of ``n_jobs`` tasks that run at the same time.
+
+    Parameters
+    ----------
+    n_jobs : int or None, default=None
+        As for :class:`joblib.Parallel`; ``None`` is work in the calling
+        process (one task, unless joblib's ``parallel_config`` says more).
+
+    Returns
+    -------
+    int
+        ``min(process_threads(), cpu_count() // workers)``, at least 1.
+
+    Examples
+    --------
+    >>> thread_budget(n_jobs=10_000)
+    1
+    """
+    return max(1, min(process_threads(), cpu_count() // n_workers(n_jobs)))
+
+
+@contextmanager
+def blas_threads(order, n_jobs=None):
+    """Hold BLAS to the threads that work on matrices of ``order`` may use.
+
+    One thread below :data:`SMALL_ORDER`, else :func:`thread_budget`.
+
+    Parameters
+    ----------
+    order : int
+        Order (rows) of the largest matrix factored or multiplied inside.
+    n_jobs : int or None, default=None
+        The ``n_jobs`` of the :class:`joblib.Parallel` that runs this work
+        as one of its tasks; ``None`` in the calling process.
+
+    Examples
+    --------
+    >>> from threadpoolctl import threadpool_info
+    >>> with blas_threads(10):
+    ...     {i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"}
+    {1}
+    """
+    limit = 1 if order < SMALL_ORDER else thread_budget(n_jobs)
+    with threadpool_limits(limits=limit, user_api="blas"):
+        yield limit
+
+
+def describe_threads():
+    """One line on the machine's cores and the BLAS libraries' threads.
+
+    Benchmarks print it, so that a time can be read with the threads it
+    ran with.
+
+    Examples
+    --------
+    >>> describe_threads().startswith("cores:")
+    True
+    """
+    libs = ", ".join(
+        f"{info['internal_api']} {info.get('version') or ''} "
+        f"{info.get('architecture') or ''} {info['num_threads']} threads".replace(
+            "  ", " "
+        )
+        for info in threadpool_info()
+        if info["user_api"] == "blas"
+    )
+    env = {
+        k: os.environ[k]
+        for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "OPENBLAS_CORETYPE")
+        if k in os.environ
+    }
+    return (
+        f"cores: {cpu_count()}; BLAS: {libs or 'none found'}; "
+        f"skmba: {SMALL_ORDER}+ order work on {process_threads()} threads, "
+        f"smaller on 1; env {env or '{}'}"
+    )
+
+
+class BlasTask:
+    """``func`` as a joblib task under :func:`blas_threads`.
+
+    ``delayed(BlasTask(func, order, n_jobs))(*args)`` runs ``func(*args)``
+    with the BLAS threads of work on matrices of ``order`` as one of the
+    tasks of ``Parallel(n_jobs)``, in whichever process or thread the
+    backend runs it. Picklable when ``func`` is a module-level function.
+
+    The caller holds the same limit around the ``Parallel`` call
+    (``with task.held(): ...``): a thread-based backend runs the tasks in
+    the caller's process, whose BLAS limit is one for all its threads, and
+    a task ending would otherwise restore the caller's threads under the
+    feet of a task still running.
+
+    Examples
+    --------
+    >>> from joblib import Parallel, delayed
+    >>> task = BlasTask(pow, 10, 2)
+    >>> with task.held():
+    ...     Parallel(n_jobs=2)(delayed(task)(2, k) for k in range(3))
+    [1, 2, 4]
+    """
+
+    def __init__(self, func, order, n_jobs=None):
+        self.func, self.order, self.n_jobs = func, int(order), n_jobs
+
+    def __call__(self, *args, **kwargs):
+        with blas_threads(self.order, self.n_jobs):
+            return self.func(*args, **kwargs)
+
+    def held(self):
+        """The tasks' limit as a context manager, for the caller."""
+        return blas_threads(self.order, self.n_jobs)

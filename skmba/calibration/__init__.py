@@ -1,0 +1,38 @@
+"""Calibration with model discrepancy: the four modules of thesis chapter 4.
+
+Public for its estimator; the files are private and named in pipeline
+order, so that an option value leads to its file:
+
+=================================  ========================================
+file                               holds
+=================================  ========================================
+``_estimator.py``                  :class:`ModularBayesCalibrator`
+``_pipeline.py``                   modules 1-3 run in order
+``_field_data.py``                 checks of the field data
+``_simulations.py``                the simulation runs and their checks
+``_module1_emulator.py``           module 1: the emulator, standardisation
+``_module2_prior_integral.py``     module 2: the emulator integrated over
+                                   the prior (``integration``)
+``_module2_plug_in.py``            module 2 by maximum likelihood
+                                   (``discrepancy_uncertainty="plug-in"``)
+``_module2_posterior.py``          module 2's posterior draws
+                                   (``discrepancy_uncertainty="propagate"``)
+``_module3_likelihood.py``         module 3: the global model (Eq. 4.30)
+``_module3_batch_likelihood.py``   Eq. 4.30 at many thetas at once
+``_module3_mixture.py``            module 3 over module 2's draws
+``_module3_posterior.py``          the posterior of theta (``sampler``)
+``_module3_identifiability.py``    ``identifiability_`` and its warning
+``_module4_prediction.py``         module 4: the predictions
+``_summary.py``                    ``summary`` and ``to_inference_data``
+=================================  ========================================
+
+Examples
+--------
+>>> from skmba.calibration import ModularBayesCalibrator
+>>> ModularBayesCalibrator().discrepancy_uncertainty
+'propagate'
+"""
+
+from skmba.calibration._estimator import ModularBayesCalibrator
+
+__all__ = ["ModularBayesCalibrator"]

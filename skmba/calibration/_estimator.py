@@ -1,0 +1,701 @@
+"""ModularBayesCalibrator: the estimator that runs the four MBA modules.
+
+``fit`` checks the data, collects the simulations
+(:mod:`skmba.calibration._simulations`) and runs module 1
+(:mod:`skmba.calibration._module1_emulator`), module 2
+(:mod:`skmba.calibration._module2_prior_integral`,
+:mod:`skmba.calibration._module2_plug_in`) and module 3
+(:mod:`skmba.calibration._module3_posterior`); the predictions are module 4
+(:mod:`skmba.calibration._module4_prediction`). The estimator only orchestrates: the
+numerics live in those modules, and the fitted attributes are set in one place, at the
+end of ``fit``.
+
+Examples
+--------
+>>> from skmba import ModularBayesCalibrator
+>>> ModularBayesCalibrator(n_chains=2).n_chains
+2
+"""
+
+from typing import ClassVar
+
+import numpy as np
+from sklearn.base import BaseEstimator, MultiOutputMixin, RegressorMixin
+from sklearn.gaussian_process.kernels import Kernel
+from sklearn.utils.validation import (
+    check_consistent_length,
+    check_is_fitted,
+    validate_data,
+)
+
+from skmba._core.columns import column_names, match_columns
+from skmba._core.progress import Progress
+from skmba._core.regression import REGRESSIONS
+from skmba._core.threads import blas_threads
+from skmba._core.validation import (
+    Boolean,
+    Callable,
+    Count,
+    InstanceOf,
+    NJobs,
+    Options,
+    Real,
+    int_seed,
+    seed_sequence,
+    validate_parameter_table,
+)
+from skmba.calibration._field_data import (
+    check_field_data,
+    checked_field_y,
+    field_order,
+    measured_field_data,
+    measured_r2,
+    warn_few_distinct_inputs,
+)
+from skmba.calibration._module2_plug_in import DISCREPANCY_OPTIMIZERS
+from skmba.calibration._module2_prior_integral import (
+    INTEGRATIONS,
+    MODULE2_VARIANCES,
+    one_parameter_rule,
+)
+from skmba.calibration._module3_identifiability import warn_if_confounded
+from skmba.calibration._module3_posterior import (
+    SAMPLERS,
+)
+from skmba.calibration._module4_prediction import PredictionRule, predict_component
+from skmba.calibration._pipeline import (
+    DISCREPANCY_UNCERTAINTIES,
+    OPTIONAL_FITTED,
+    checked_prior,
+    fitted_attributes,
+    module2_prior,
+    named_simulations,
+    prior_names,
+    run_modules,
+    simulations_for,
+)
+from skmba.calibration._simulations import (
+    check_failed_runs,
+    check_response_ranges,
+    check_simulation_design,
+    given_simulations,
+    keep_simulator_runs,
+)
+from skmba.calibration._summary import (
+    calibration_table,
+    calibration_text,
+    inference_data,
+)
+
+_KERNEL = InstanceOf(Kernel, what="an sklearn Kernel", allow_none=True)
+
+
+class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
+    """Bayesian calibration of a computer model with model discrepancy.
+
+    Read more in the :ref:`User Guide <user-guide-calibration>`.
+
+    The modular Bayesian approach (MBA, thesis chapter 4) for
+    ``y_e(x) = y_m(x, theta*) + delta(x) + eps``: module 1 emulates the
+    simulations, module 2 fits the discrepancy and the noise, module 3 gives
+    the posterior of ``theta`` and module 4 predicts the model, the
+    discrepancy and reality over it. Everything is standardised internally
+    (appendix C.2) and reported in user units.
+
+    Parameters
+    ----------
+    simulator : callable, default=None
+        ``simulator(X, theta) -> Y``, called on blocks of runs: ``X`` (n, d),
+        ``theta`` (n, r), ``Y`` (n, q), first on all of them at once. ``fit``
+        runs it on a Latin hypercube over the range of ``X`` times the
+        prior's 0.999 central interval. A run that raises or returns NaN or
+        inf is left out and listed in ``simulation_failures_`` (a block that
+        raises is halved until the failing runs are found); ``fit`` warns
+        with their count and fails only when too few runs remain.
+        Not needed after ``fit`` (``set_params(simulator=None)`` before
+        pickling one that cannot be pickled; see the User Guide).
+    prior : list or dict of frozen scipy.stats distributions, frozen \
+            multivariate_normal or object with ``logpdf``/``rvs``, default=None
+        Prior of the ``r`` calibration parameters. A dict ``{name:
+        distribution}`` also names them (``parameter_names_``). None means
+        uniform over the range of ``theta_sim`` (only with precomputed
+        simulations).
+    n_simulations : int, default=None
+        Runs of ``simulator`` (default ``10 * (d + r)``).
+    model_kernel, discrepancy_kernel : sklearn Kernel, default=None
+        Correlations of the emulator and of the discrepancy (unit diagonal,
+        checked: ``ConstantKernel(2.0) * RBF()`` is an error, the variances
+        are estimated separately). None: anisotropic
+        :class:`~skmba.kernels.Gauss` scaled to the data. They act on
+        standardised inputs; scikit-learn kernels keep their own bounds.
+    regression, discrepancy_regression : {"constant", "linear", "quadratic"}
+        Mean bases of the emulator and of the discrepancy.
+    noise : bool, default=True
+        Estimate the per-response measurement noise. False fixes it at a
+        negligible nugget (noise-free field data).
+    integration : {"auto", "quadrature", "qmc"}, default="auto"
+        Module-2 integration rule: "quadrature" (Gauss-Legendre on prior
+        quantiles, one parameter only), "qmc" (scrambled Sobol points), or
+        "auto" (quadrature for one parameter, qmc otherwise).
+    sampler : {"auto", "quadrature", "mcmc"}, default="auto"
+        Module-3 posterior: "quadrature" (one parameter), "mcmc", or "auto".
+    n_chains : int, default=4
+        Metropolis-Hastings chains (MCMC only), run in parallel.
+    n_samples : int, default=5000
+        Draws per chain kept after burn-in (MCMC), or the number of draws
+        ``theta_samples_`` resampled from the quadrature posterior.
+    burn_in : int, default=1000
+        Draws per chain discarded; the proposal adapts during burn-in only.
+    n_jobs : int, default=None
+        Parallel chains, module-2 node blocks and module-4 predictions,
+        through joblib (``joblib.parallel_config(backend="dask")`` works);
+        ``-1`` all cores. BLAS is held to one thread during ``fit`` and the
+        predictions: the parallelism is joblib's.
+    random_state : int, RandomState, Generator, SeedSequence or None
+        The same seed gives bit-identical results for any ``n_jobs`` and
+        joblib backend.
+    n_integration_nodes : int, default=None
+        Module-2 nodes (default 32 for quadrature, 256 for qmc).
+    module2_variance : {"total", "conditional"}, default="total"
+        "conditional" uses Eq. 4.15 as printed; "total" adds the spread of
+        the emulator mean over the prior (law of total variance; the User
+        Guide says why it is the default).
+    n_restarts_optimizer : int, default=2
+        Random restarts of the module-1 and module-2 likelihood maximisation.
+    discrepancy_optimizer : {"fmin_l_bfgs_b", "differential_evolution"}
+        Module-2 optimiser; differential evolution is a global search (the
+        analogue of the thesis' genetic algorithm) followed by L-BFGS-B.
+    discrepancy_uncertainty : {"propagate", "plug-in"}, default="propagate"
+        Module-2 treatment. "propagate": the discrepancy and noise
+        hyperparameters get the prior of ``discrepancy_prior``, module 2
+        finds their restricted-likelihood posterior (mode and Laplace
+        approximation) and module 3 integrates them out over 16 of its
+        draws, so that theta's interval carries their uncertainty. "plug-in":
+        the thesis' MBA, their estimate within the ranges of
+        ``discrepancy_prior`` plugged into modules 3 and 4. The User Guide
+        ("How honest are the intervals?") compares the two.
+    discrepancy_prior : dict, default=None
+        In the standardised units of the simulations (inputs and responses
+        centred and scaled by their spread over the simulations). With
+        ``discrepancy_uncertainty="propagate"``, the prior (None: these
+        defaults; a missing key keeps its default)::
+
+            {"sd_scale": 0.5,           # half-normal scale of each sd
+             "correlation_eta": 2.0,    # LKJ prior of the correlation
+             "roughness": (0.1, 9.0),   # log-uniform, thesis Table 6.2
+             "noise": (1e-6, 1.0)}      # log-uniform noise variance
+
+        With "plug-in", ranges of the hyperparameters (a uniform prior whose
+        maximum a posteriori module 2 finds)::
+
+            {"roughness": (0.1, 9.0),   # per design variable
+             "variance": (1e-2, 20.0)}  # diagonal of Sigma_d, per response
+
+        (thesis Table 6.2); each range is ``(low, high)`` of scalars or of
+        arrays, and ``None`` removes it (``"variance": None``: the plain
+        maximum likelihood). The lower end of ``"variance"`` is held as each
+        response's own part of the discrepancy.
+    emulator_alpha : float, default=1e-8
+        Nugget of the emulator's correlation matrix, at the simulations and
+        at the field inputs of the module-3 likelihood alike (the model term
+        of the global covariance is ``Sigma2_m ⊗ (R + alpha I)``).
+    verbose : int, default=0
+        Progress on standard error, prefixed ``[ModularBayesCalibrator]``:
+        0 prints nothing; 1 shows progress bars (simulator runs, emulator
+        and module-2 restarts, MCMC steps of all chains, also when joblib
+        workers run them) and a line per module (time, noise, posterior,
+        MCMC diagnostics); 2 also detail lines (each restart, each chain's
+        burn-in and acceptance). Results do not depend on it (see the User
+        Guide).
+
+    Attributes
+    ----------
+    model_gp_ : MultiResponseGP
+        Module-1 emulator, fitted on standardised inputs and responses
+        (``(X - X_mean_) / X_scale_`` etc.); use :meth:`predict_model` for user
+        units.
+    discrepancy_kernel_ : sklearn Kernel
+        Fitted discrepancy correlation (on standardised inputs).
+    discrepancy_sigma2_ : ndarray of shape (q, q)
+        Discrepancy covariance in squared response units.
+    discrepancy_beta_ : ndarray of shape (p_d, q)
+        Discrepancy regression coefficients, in response units, of the basis
+        evaluated on the standardised inputs.
+    noise_ : ndarray of shape (q,)
+        Measurement-noise variances in squared response units: the module-2
+        estimate (the posterior mode under the default ``"propagate"``, in
+        the coordinates of its Laplace approximation, which lies about 12 %
+        below the posterior mean on 20-30 readings per response; ``predict``
+        adds the posterior mean, see the user guide).
+    theta_samples_ : ndarray of shape (n_draws, r)
+        Posterior draws (pooled chains after burn-in, or draws from the
+        quadrature posterior).
+    theta_chains_ : ndarray of shape (n_chains, n_samples, r)
+        The MCMC draws after burn-in chain by chain, in user units, for trace
+        plots; ``theta_samples_`` is ``theta_chains_.reshape(-1, r)``. Only
+        with MCMC.
+    theta_log_posterior_ : ndarray of shape (n_chains, n_samples)
+        :meth:`log_posterior` at each draw of ``theta_chains_``; only with
+        MCMC.
+    theta_mean_ : ndarray of shape (r,)
+    theta_cov_ : ndarray of shape (r, r)
+    acceptance_rate_, rhat_, ess_ : ndarray
+        MCMC diagnostics (n_chains,), (r,), (r,); only with MCMC. ``rhat_``
+        and ``ess_`` are the rank-normalised split R-hat and the bulk
+        effective sample size, equal to ArviZ's ``rhat`` and ``ess(method=
+        "bulk")`` (see the User Guide).
+    identifiability_ : ndarray of shape (r,)
+        Per parameter, the ratio of its linearised posterior sd without a
+        discrepancy to that with a discrepancy of plausible size (each
+        response's at the 95 % point of the prior of its sd), near
+        the posterior mean: near 1, the data identify it whatever the
+        discrepancy; below 1/3 ``fit`` warns
+        (:class:`~skmba.exceptions.NonIdentifiabilityWarning`): a
+        discrepancy can mimic its effect and its interval reflects the
+        discrepancy prior more than the data.
+    theta_robust_interval_ : ndarray of shape (r, 2)
+        Per parameter, a 95 % interval that holds across plausible model
+        errors: the posterior mean plus and minus 1.96 times the linearised
+        posterior sd with the discrepancy of ``identifiability_``'s probe,
+        clipped to the prior's support. Close to the posterior's interval
+        where the data identify the parameter; most of the prior where a
+        discrepancy can mimic it (see "How honest are the intervals?" in
+        the User Guide for its coverage).
+    parameter_names_ : list of str
+        The names of the calibration parameters: the keys of a dict prior
+        (or, without a prior, the columns of a ``theta_sim`` DataFrame),
+        else ``theta0, theta1, ...``.
+    response_names_ : list of str or None
+        The column names of ``y`` when it is a pandas DataFrame, else None.
+    feature_names_in_ : ndarray of shape (d,)
+        The column names of ``X`` when it is a DataFrame with string column
+        names (scikit-learn's rule); only then.
+    X_obs_, y_obs_ : ndarray
+        The field data of ``fit`` (for :meth:`to_inference_data`), without
+        the rows that had no measured response; NaN where a reading was not
+        taken.
+    theta_nodes_, theta_weights_ : ndarray
+        The posterior quadrature (only with quadrature).
+    prior_ : skmba.priors._theta.Prior
+    global_model_ : GlobalModel
+        The module-3 likelihood of Eq. 4.30 (standardised units), built
+        from the emulator, the field data and the module-2 estimates; its
+        ``log_likelihood(theta_std)`` takes standardised parameters
+        ``(theta - theta_offset_) / theta_scale_``.
+    X_sim_, theta_sim_, y_sim_ : ndarray
+        The simulations used (given and run, the successful ones).
+    simulation_failures_ : list of SimulationFailure
+        The runs left out: rows of ``y_sim`` with NaN or inf and simulator
+        runs that raised or returned NaN or inf, each a named tuple
+        ``(source, index, X, theta, error)`` (``pandas.DataFrame`` of the
+        list tabulates them); empty when every run succeeded.
+    X_mean_, X_scale_, theta_offset_, theta_scale_, y_mean_, y_scale_ : ndarray
+        The standardisation (simulation data as reference): the centre and
+        the scale of each design variable, parameter and response.
+    n_features_in_ : int
+
+    See Also
+    --------
+    MultiResponseGP : the emulator and discrepancy model.
+    PreposteriorDesigner : which responses identify theta best, before
+        measuring.
+
+    References
+    ----------
+    Kennedy & O'Hagan (2001), Bayesian calibration of computer models, JRSS
+    B 63(3). Arendt, Apley & Chen (2012), Quantification of model
+    uncertainty: calibration, model discrepancy, and identifiability, J.
+    Mech. Des. 134(10). Thesis chapter 4 and appendix B.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from scipy import stats
+    >>> from skmba import ModularBayesCalibrator
+    >>> def model(X, theta):
+    ...     return np.column_stack([theta[:, 0] * X[:, 0], theta[:, 0] + X[:, 0]])
+    >>> X = np.linspace(0, 1, 12)[:, None]
+    >>> y = model(X, np.full((12, 1), 2.0)) + 0.05 * np.sin(6 * X)
+    >>> cal = ModularBayesCalibrator(
+    ...     model, [stats.uniform(1, 2)], n_simulations=30, random_state=0
+    ... ).fit(X, y)
+    >>> bool(abs(cal.theta_mean_[0] - 2.0) < 0.1)
+    True
+    """
+
+    _parameter_constraints: ClassVar[dict] = {
+        "simulator": [
+            Callable(what="a callable simulator(X, theta) -> Y", allow_none=True)
+        ],
+        "prior": "no_validation",  # check_prior, in fit
+        "n_simulations": [Count(minimum=2, allow_none=True)],
+        "model_kernel": [_KERNEL],
+        "discrepancy_kernel": [_KERNEL],
+        "regression": [Options(REGRESSIONS, hint="thesis Table 3.1")],
+        "discrepancy_regression": [Options(REGRESSIONS, hint="thesis Table 3.1")],
+        "noise": [Boolean()],
+        "integration": [Options(INTEGRATIONS)],
+        "sampler": [Options(SAMPLERS)],
+        "n_chains": [Count(minimum=1)],
+        "n_samples": [Count(minimum=1)],
+        "burn_in": [Count(minimum=0)],
+        "n_jobs": [NJobs()],
+        "random_state": "no_validation",  # check_random_state, in fit
+        "n_integration_nodes": [Count(minimum=2, allow_none=True)],
+        "module2_variance": [Options(MODULE2_VARIANCES)],
+        "n_restarts_optimizer": [Count(minimum=0)],
+        "discrepancy_optimizer": [Options(DISCREPANCY_OPTIMIZERS)],
+        "discrepancy_uncertainty": [Options(DISCREPANCY_UNCERTAINTIES)],
+        "discrepancy_prior": "no_validation",  # module2_prior, in fit
+        "emulator_alpha": [Real(minimum=0, hint="the emulator's nugget, e.g. 1e-8")],
+        "verbose": [Count(minimum=0)],
+    }
+
+    def __init__(
+        self,
+        simulator=None,
+        prior=None,
+        *,
+        n_simulations=None,
+        model_kernel=None,
+        discrepancy_kernel=None,
+        regression="constant",
+        discrepancy_regression="constant",
+        noise=True,
+        integration="auto",
+        sampler="auto",
+        n_chains=4,
+        n_samples=5000,
+        burn_in=1000,
+        n_jobs=None,
+        random_state=None,
+        n_integration_nodes=None,
+        module2_variance="total",
+        n_restarts_optimizer=2,
+        discrepancy_optimizer="fmin_l_bfgs_b",
+        discrepancy_uncertainty="propagate",
+        discrepancy_prior=None,
+        emulator_alpha=1e-8,
+        verbose=0,
+    ):
+        self.simulator = simulator
+        self.prior = prior
+        self.n_simulations = n_simulations
+        self.model_kernel = model_kernel
+        self.discrepancy_kernel = discrepancy_kernel
+        self.regression = regression
+        self.discrepancy_regression = discrepancy_regression
+        self.noise = noise
+        self.integration = integration
+        self.sampler = sampler
+        self.n_chains = n_chains
+        self.n_samples = n_samples
+        self.burn_in = burn_in
+        self.n_jobs = n_jobs
+        self.random_state = random_state
+        self.n_integration_nodes = n_integration_nodes
+        self.module2_variance = module2_variance
+        self.n_restarts_optimizer = n_restarts_optimizer
+        self.discrepancy_optimizer = discrepancy_optimizer
+        self.discrepancy_uncertainty = discrepancy_uncertainty
+        self.discrepancy_prior = discrepancy_prior
+        self.emulator_alpha = emulator_alpha
+        self.verbose = verbose
+
+    # -------------------------------------------------------------- fit
+    def fit(self, X, y, *, X_sim=None, theta_sim=None, y_sim=None):
+        """Run modules 1-3 (module 4 runs at prediction time).
+
+        Parameters
+        ----------
+        X : array-like or DataFrame of shape (n, d)
+            Field inputs (design variables) of the observations.
+        y : array-like or DataFrame of shape (n,) or (n, q)
+            Field observations. NaN marks a reading that was not taken (a
+            sensor out): modules 2-4 use the measured entries, and a row
+            with no measured response is left out with a warning.
+        X_sim, theta_sim, y_sim : array-like or DataFrame, optional
+            A precomputed simulation dataset: inputs (N, d), parameters
+            (N, r) and responses (N, q). DataFrames are matched by column
+            name to ``X``, to the keys of a dict ``prior`` and to ``y`` when
+            those are named (their order may differ; different names are a
+            ValueError listing both); arrays by position. Rows of ``y_sim``
+            with NaN or inf (failed runs) are left out and listed in
+            ``simulation_failures_``.
+
+        Returns
+        -------
+        self
+
+        Raises
+        ------
+        ValueError, TypeError
+            Invalid data or parameters; the message names the argument and
+            the fix.
+        RuntimeError
+            The simulator failed on every run; the message names one and its
+            inputs and the simulator's exception is chained.
+
+        Warns
+        -----
+        NonIdentifiabilityWarning
+            A parameter the data cannot tell from the discrepancy (see
+            ``identifiability_``).
+        UserWarning
+            Rows of ``y`` without any reading (left out); failed simulation
+            runs (their count and errors); observation
+            inputs outside the range of the simulations; more
+            than 2 % of the prior mass outside the simulated range of theta;
+            poor MCMC diagnostics (R-hat, effective sample size).
+        """
+        # BLAS threads by the package's policy (skmba._core.threads): the field
+        # block (n q) decides for modules 2-4 in this process; the emulator's
+        # fit and the simulation block take threads by their own size, and
+        # joblib tasks their share of the cores.
+        partial = {}
+        try:
+            with blas_threads(field_order(y)):
+                fitted = self._fit(X, y, X_sim, theta_sim, y_sim, partial)
+        except Exception as exc:
+            keep_simulator_runs(self, partial.get("simulations"), exc)
+            raise
+        self._set_fitted(fitted)
+        warn_if_confounded(self.identifiability_, self.parameter_names_)
+        return self
+
+    def _fit(self, X, y, X_sim, theta_sim, y_sim, partial):
+        """Modules 1-3; returns what :meth:`_set_fitted` stores."""
+        validate_parameter_table(self)
+        check_field_data(X, y, self.discrepancy_regression)
+        responses = column_names(y)
+        X = validate_data(self, X)
+        # NaN in y is a reading not taken; scikit-learn's y check rejects it.
+        y = checked_field_y(y)
+        check_consistent_length(X, y)
+        # Tables of simulations are matched to the field data and the prior
+        # by their column names (arrays by position).
+        X_sim, theta_sim, y_sim = named_simulations(
+            X_sim,
+            theta_sim,
+            y_sim,
+            features=getattr(self, "feature_names_in_", None),
+            parameters=prior_names(self.prior),
+            responses=responses,
+        )
+        # C order whatever the input's (a DataFrame gives Fortran order): the
+        # same bits as from an array.
+        X = np.ascontiguousarray(X, dtype=float)
+        Y = np.ascontiguousarray(y, dtype=float).reshape(len(X), -1)
+        X, Y = measured_field_data(X, Y, self.discrepancy_regression, responses)
+        y = Y[:, 0] if y.ndim == 1 else Y
+        warn_few_distinct_inputs(X, self.discrepancy_regression)
+        q = Y.shape[1]
+        # Before any simulation runs: a bad range must not waste them.
+        ranges = module2_prior(self, X, q)
+        # One child of the seed per random step: the simulation design, then
+        # modules 1, 2a, 2b and 3.
+        seeds = [int_seed(c) for c in seed_sequence(self.random_state).spawn(7)]
+        given = given_simulations(X, q, X_sim, theta_sim, y_sim)
+        prior = checked_prior(self.prior, given, names=column_names(theta_sim))
+        for name, other in (("integration", "qmc"), ("sampler", "mcmc")):
+            one_parameter_rule(name, getattr(self, name), prior.dim, several=other)
+        progress = Progress(self.verbose, "ModularBayesCalibrator")
+        sims = simulations_for(self, X, q, prior, given, seeds[0], progress)
+        partial["simulations"] = sims
+        check_failed_runs(sims, self.regression, X.shape[1] + prior.dim)
+        if sims.theta.shape[1] != prior.dim:
+            raise ValueError(
+                f"theta_sim has {sims.theta.shape[1]} columns but the prior has "
+                f"{prior.dim} parameters."
+            )
+        check_simulation_design(
+            X, prior, sims, getattr(self, "feature_names_in_", None)
+        )
+        check_response_ranges(Y, sims.y, responses)
+        return dict(
+            X=X,
+            y=Y[:, 0] if np.ndim(y) == 1 else Y,
+            Y_ndim=np.ndim(y),
+            responses=responses,
+            prior=prior,
+            sims=sims,
+            **run_modules(self, X, Y, sims, prior, ranges, seeds[1:], progress),
+        )
+
+    def _set_fitted(self, fitted):
+        """Every fitted attribute, in one place (see :func:`fitted_attributes`)."""
+        for name in OPTIONAL_FITTED:
+            self.__dict__.pop(name, None)
+        for name, value in fitted_attributes(**fitted).items():
+            setattr(self, name, value)
+
+    # -------------------------------------------------- module 3 and 4
+    def log_posterior(self, theta):
+        """Module-3 log posterior of ``theta`` (user units), up to a constant.
+
+        ``log p(theta) + log p(Y | theta, D, phi)`` with the regression
+        coefficients integrated out (Eq. 4.30); ``-inf`` outside the prior's
+        support or where the global covariance cannot be factored.
+
+        Parameters
+        ----------
+        theta : array-like of shape (r,) or (m, r)
+            A DataFrame's columns are matched to ``parameter_names_`` when
+            the prior named them (a dict prior), else taken in order.
+
+        Returns
+        -------
+        float or ndarray of shape (m,)
+        """
+        check_is_fitted(self, "theta_mean_")
+        # A table is matched by name when the prior named the parameters.
+        named = getattr(self.prior_, "names", None)
+        theta = match_columns(theta, named, "theta", "the parameter names")
+        theta = np.asarray(theta, dtype=float)
+        single = theta.ndim == 1
+        theta = np.atleast_2d(theta)
+        if theta.shape[1] != self.prior_.dim:
+            raise ValueError(
+                f"theta has {theta.shape[1]} values per row; the prior has "
+                f"{self.prior_.dim} parameters."
+            )
+        out = np.array([self._log_posterior(t) for t in theta])
+        return float(out[0]) if single else out
+
+    def _predict_component(self, X, component, return_std):
+        check_is_fitted(self, "theta_mean_")
+        X = validate_data(self, X, reset=False).astype(float)
+        scaler, rule = self._scaler, self._prediction_rule
+        mean, var = predict_component(
+            self.global_model_,
+            PredictionRule(scaler.theta(rule.thetas), rule.weights, rule.draws),
+            scaler.x(X),
+            component,
+            return_std=return_std,
+            n_jobs=self.n_jobs,
+        )
+        mean = scaler.y_to_user(mean, centred=component != "discrepancy")
+        std = None if var is None else np.sqrt(var) * scaler.y_scale
+        if self._y_ndim == 1:
+            mean = mean[:, 0]
+            std = None if std is None else std[:, 0]
+        return mean if std is None else (mean, std)
+
+    # ------------------------------------------------ summary and ArviZ
+    def to_inference_data(self, *, n_prior_draws=None, random_state=0):
+        """The posterior, prior and field data as an ArviZ object.
+
+        Built with ``arviz.from_dict`` (an ``InferenceData`` with ArviZ 0.x,
+        a ``DataTree`` with 1.x) with the groups ``posterior`` (one variable
+        per name of ``parameter_names_``, dims (chain, draw); with
+        quadrature one pseudo-chain of independent draws, said in its
+        ``note`` attribute), ``sample_stats`` (MCMC: ``lp``,
+        ``acceptance_rate``), ``prior``, ``observed_data`` and
+        ``constant_data``. Read more in :ref:`user-guide-diagnostics`.
+
+        Parameters
+        ----------
+        n_prior_draws : int, default=None
+            Prior draws; None means as many as posterior draws.
+        random_state : int, Generator or None, default=0
+            Seeds the prior draws (and the order of quadrature draws).
+
+        Returns
+        -------
+        arviz.InferenceData or xarray.DataTree
+
+        Raises
+        ------
+        ImportError
+            Without ArviZ: install the extra, ``pip install "skmba[arviz]"``.
+        """
+        check_is_fitted(self, "theta_mean_")
+        return inference_data(self, n_prior_draws, random_state)
+
+    def summary(self, kind="table"):
+        """The posterior of each calibration parameter.
+
+        Parameters
+        ----------
+        kind : {"table", "text"}, default="table"
+            ``"table"``: one row per parameter with ``mean``, ``sd``,
+            ``2.5%``, ``97.5%``, ``prior_mean``, ``prior_sd``, ``sd_ratio``
+            (posterior over prior sd), ``r_hat``, ``ess_bulk`` (NaN with
+            quadrature) and ``identifiability`` when the calibrator has it.
+            ``"text"``: the same on one line, for logs.
+
+        Returns
+        -------
+        pandas.DataFrame, numpy structured array or str
+            A DataFrame indexed by parameter name when pandas is installed,
+            else a structured array with a first field ``parameter``.
+        """
+        check_is_fitted(self, "theta_mean_")
+        if kind == "text":
+            return calibration_text(self)
+        if kind != "table":
+            raise ValueError(f'kind must be "table" or "text"; got {kind!r}.')
+        return calibration_table(self)
+
+    def predict(self, X, return_std=False):
+        """Calibrated prediction of a new field measurement (module 4).
+
+        The mean and standard deviation of ``y_e(x) = y_m(x, theta) + delta(x)
+        + eps`` averaged over the posterior of ``theta`` (laws of total
+        expectation and variance, Eqs. 4.35-4.41); the standard deviation
+        includes the measurement noise.
+
+        Parameters
+        ----------
+        X : array-like of shape (s, d)
+        return_std : bool, default=False
+
+        Returns
+        -------
+        mean : ndarray of shape (s,) or (s, q)
+        std : ndarray, same shape (only when ``return_std``)
+        """
+        return self._predict_component(X, "observation", return_std)
+
+    def score(self, X, y, sample_weight=None):
+        """R² of :meth:`predict` on ``y``, over the measured entries.
+
+        scikit-learn's ``r2_score`` averaged uniformly over the responses;
+        NaN in ``y`` (readings not taken) are left out response by response,
+        so that field data with gaps can be scored.
+
+        Parameters
+        ----------
+        X : array-like of shape (s, d)
+        y : array-like of shape (s,) or (s, q)
+        sample_weight : array-like of shape (s,), default=None
+
+        Returns
+        -------
+        float
+        """
+        y = checked_field_y(y)
+        pred = np.asarray(self.predict(X), dtype=float).reshape(len(y), -1)
+        return measured_r2(y.reshape(len(y), -1), pred, sample_weight)
+
+    def predict_reality(self, X, return_std=False):
+        """Prediction of the true process ``y_m(x, theta) + delta(x)`` (no noise)."""
+        return self._predict_component(X, "reality", return_std)
+
+    def predict_model(self, X, return_std=False):
+        """Prediction of the model output ``y_m(x, theta)`` over the posterior.
+
+        Conditional on all data (simulations and field data) at each
+        ``theta``, then averaged over the posterior (Eqs. 4.33-4.34).
+        """
+        return self._predict_component(X, "model", return_std)
+
+    def predict_discrepancy(self, X, return_std=False):
+        """Prediction of the discrepancy ``delta(x)`` over the posterior.
+
+        The conditional moments of ``delta`` given all data at each
+        ``theta`` (Eqs. 4.42-4.43, with the global model), averaged over the
+        posterior. ``predict_model + predict_discrepancy`` equals
+        :meth:`predict_reality` in the mean.
+        """
+        return self._predict_component(X, "discrepancy", return_std)

@@ -1,0 +1,599 @@
+"""Module 2, steps 3-5: the discrepancy GP and the noise by maximum likelihood.
+
+Given the prior-integrated emulator at the field inputs (mean ``m_bar`` and covariance
+``V_bar``, see :mod:`skmba.calibration._module2_prior_integral`), the field data obey
+(thesis Eqs. 4.18-4.21)::
+
+    vec(Y_e) ~ N(vec(m_bar) + (I_q ⊗ H_d) vec(beta_d),
+                 V_bar + Sigma_d ⊗ R_d(omega_d) + Lambda ⊗ I_n)
+
+``beta_d`` is the GLS estimate; ``omega_d`` (the discrepancy kernel),
+``Sigma_d`` (full q x q) and ``Lambda`` (diagonal, in log space) maximise the
+likelihood with analytic gradients, from the starting point and random
+restarts, or by scipy's differential evolution followed by L-BFGS-B (the
+analogue of the thesis' genetic algorithm, appendix C.1.3). ``V_bar`` has no
+Kronecker structure, so each evaluation factors the ``nq x nq`` covariance
+once.
+
+``Sigma_d = diag(low) + diag(s) C diag(s)``: ``low`` is the lower end of the
+range of the discrepancy variances, held as a part of each response's own
+that no correlation can cancel, and ``s`` and ``C`` are free: ``log s``, and
+the Cholesky factor of the correlation ``C`` with rows ``w_i / |w_i|``,
+``w_i = (z_i1, ..., z_i,i-1, 1)`` and free ``z`` (every correlation matrix is
+reached). Bounds on ``s`` make the diagonal of ``Sigma_d`` lie exactly in the
+range. Thesis Table 6.2 gives the default ranges
+(:data:`TABLE_6_2_RANGES`): a uniform prior on the hyperparameters, whose
+maximum a posteriori is the likelihood maximised inside them.
+
+Why a lower end: when the model at some ``theta`` reproduces the field data,
+as on the cantilever whose spring only rescales the responses, the plain
+maximum likelihood makes the discrepancy vanish, or perfectly correlated
+between responses, and module 3 then pins ``theta`` to the value that needs
+no discrepancy, with a credible interval that ignores that the model is
+known to be wrong (Brynjarsdottir & O'Hagan, 2014, Inverse Problems 30).
+"""
+
+import warnings
+
+import numpy as np
+from scipy import linalg, optimize
+from sklearn.base import clone
+from sklearn.exceptions import ConvergenceWarning
+
+from skmba._core.linalg import (
+    FEWER_FIELD_DATA,
+    FLOAT_BYTES,
+    LOG_2PI,
+    FactorizationError,
+    check_memory,
+    cholesky,
+    log_det_from_cholesky,
+    observed_block,
+    observed_entries,
+    observed_rows,
+)
+from skmba._core.progress import as_progress, start_reporter
+from skmba._core.regression import regression_basis
+from skmba._core.validation import seed_sequence
+from skmba.gp._estimator import default_kernel
+
+DISCREPANCY_OPTIMIZERS = ("fmin_l_bfgs_b", "differential_evolution")
+#: Thesis Table 6.2: ranges of the discrepancy roughness (per standardised
+#: design variable) and variance (per response, relative to the variance of
+#: the simulated response), the prior of the discrepancy hyperparameters.
+TABLE_6_2_RANGES = {"roughness": (0.1, 9.0), "variance": (1e-2, 20.0)}
+_LOG_REL_NOISE = (np.log(1e-8), np.log(10.0))
+# Without a variance range: standard deviations within these multiples of
+# each residual's standard deviation.
+_LOG_REL_SD = (np.log(1e-5), np.log(1e2))
+_CORR_FREE = (-1e2, 1e2)
+
+
+def check_interval(value, name, size, *, lower=None):
+    """``(lo, hi)`` of scalars or of arrays of length ``size``, checked.
+
+    Examples
+    --------
+    >>> check_interval((0.1, [1.0, 2.0]), "ranges", 2)
+    (array([0.1, 0.1]), array([1., 2.]))
+    """
+    try:
+        lo, hi = value
+        lo = np.broadcast_to(np.asarray(lo, dtype=float), (size,)).copy()
+        hi = np.broadcast_to(np.asarray(hi, dtype=float), (size,)).copy()
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"{name} must be a pair (low, high) of numbers or of arrays of length "
+            f"{size}, got {value!r}."
+        ) from None
+    if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
+        raise ValueError(f"{name} must be finite, got {value!r}.")
+    if np.any(lo > hi):
+        raise ValueError(f"{name} needs low <= high, got {value!r}.")
+    if lower is not None and np.any(lo < lower):
+        raise ValueError(f"{name} must be >= {lower}, got {value!r}.")
+    return lo, hi
+
+
+def check_discrepancy_ranges(spec, d, q, name="discrepancy_prior"):
+    """The module-2 ranges of the discrepancy roughness and variance.
+
+    ``spec`` is None (thesis Table 6.2) or a dict with keys among
+    ``"roughness"`` and ``"variance"``: a pair ``(low, high)`` of scalars or
+    arrays (``d`` roughnesses, ``q`` variances), or None for no range (the
+    kernel's own bounds; the plain maximum-likelihood variance). Missing keys
+    take Table 6.2's values. Returns a dict of ``(low, high)`` arrays or None.
+
+    Examples
+    --------
+    >>> check_discrepancy_ranges({"roughness": None}, d=1, q=2)
+    {'roughness': None, 'variance': (array([0.01, 0.01]), array([20., 20.]))}
+    """
+    if spec is None:
+        spec = {}
+    if not isinstance(spec, dict):
+        raise TypeError(
+            f"{name} must be None or a dict with keys among "
+            f"{sorted(TABLE_6_2_RANGES)}, got {type(spec).__name__}."
+        )
+    unknown = set(spec) - set(TABLE_6_2_RANGES)
+    if unknown:
+        raise ValueError(
+            f"{name} has unknown keys {sorted(unknown)}; the calibrator bounds "
+            f"only {sorted(TABLE_6_2_RANGES)} (the discrepancy mean is estimated "
+            "by generalised least squares and its correlation freely)."
+        )
+    spec = {**TABLE_6_2_RANGES, **spec}
+    out = {}
+    for key, size, lower in (("roughness", d, None), ("variance", q, 0.0)):
+        if spec[key] is None:
+            out[key] = None
+            continue
+        out[key] = check_interval(spec[key], f"{name}[{key!r}]", size, lower=lower)
+    if out["roughness"] is not None and np.any(out["roughness"][0] <= 0):
+        raise ValueError(
+            f"{name}['roughness'] must be > 0, got {spec['roughness']!r}; use "
+            "None to keep the kernel's own roughness_bounds."
+        )
+    return out
+
+
+def ranges_text(ranges):
+    """The variance range of :func:`check_discrepancy_ranges`, for a log line.
+
+    Examples
+    --------
+    >>> ranges_text({"roughness": None, "variance": None})
+    'none'
+    """
+    variance = ranges["variance"]
+    if variance is None:
+        return "none"
+    lo, hi = (np.array2string(v, precision=3) for v in variance)
+    return f"{lo} to {hi}"
+
+
+def bound_roughness(kernel, low, high, name="discrepancy_prior"):
+    """A clone of ``kernel`` whose roughness is optimised in ``[low, high]``.
+
+    A kernel whose roughness is ``"fixed"`` is returned unchanged.
+
+    Examples
+    --------
+    >>> from skmba.kernels import Gauss
+    >>> bound_roughness(Gauss(0.01), np.array([0.1]), np.array([9.0]))
+    Gauss(roughness=0.1)
+    """
+    params = kernel.get_params()
+    if "roughness" not in params:
+        raise TypeError(
+            f"{name}['roughness'] needs a discrepancy kernel with a 'roughness' "
+            f"hyperparameter (the kernels of skmba.kernels), got {kernel!r}; pass "
+            f"{name}={{'roughness': None}} to keep the kernel's own bounds."
+        )
+    if isinstance(params.get("roughness_bounds"), str):  # "fixed"
+        return kernel
+    roughness = np.asarray(params["roughness"], dtype=float)
+    if roughness.ndim == 0:
+        if np.ptp(low) > 0 or np.ptp(high) > 0:
+            raise ValueError(
+                f"{name}['roughness'] gives one range per design variable but "
+                f"the kernel {kernel!r} is isotropic; give it one roughness per "
+                "design variable or use one range."
+            )
+        bounds = (float(low[0]), float(high[0]))
+        start = float(np.clip(roughness, *bounds))
+    else:
+        if roughness.size != low.size:
+            raise ValueError(
+                f"The discrepancy kernel {kernel!r} has {roughness.size} "
+                f"roughnesses for {low.size} design variables."
+            )
+        bounds = np.column_stack([low, high])
+        start = np.clip(roughness, low, high)
+    return clone(kernel).set_params(roughness=start, roughness_bounds=bounds)
+
+
+class DiscrepancyFit:
+    """Maximum-likelihood discrepancy GP and noise on top of a fixed covariance.
+
+    Parameters
+    ----------
+    kernel : sklearn Kernel
+        Discrepancy correlation (its ``theta`` is optimised within its
+        bounds).
+    X : ndarray of shape (n, d)
+    Y : ndarray of shape (n, q)
+        Field data minus the integrated emulator mean; NaN marks an entry
+        that was not measured (the likelihood is that of the others).
+    H : ndarray of shape (n, p)
+        Discrepancy regression matrix.
+    V_fixed : ndarray of shape (n q, n q)
+        The integrated emulator covariance (``vec`` response-slowest).
+    variance_bounds : pair of ndarray of shape (q,), default=None
+        ``(low, high)`` of the discrepancy variances (diagonal of
+        ``Sigma_d``), in the units of ``Y``; ``low`` may be 0. ``low`` is
+        held as an independent part of each response's discrepancy (see the
+        module docstring). None means no floor and standard deviations up to
+        100 times each column's of ``Y``: the plain maximum likelihood.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skmba.kernels import Gauss
+    >>> X = np.linspace(0, 1, 15)[:, None]
+    >>> Y = np.column_stack([np.sin(4 * X[:, 0]), X[:, 0]])
+    >>> fit = DiscrepancyFit(Gauss(), X, Y, np.ones((15, 1)), np.zeros((30, 30)))
+    >>> fit.optimize(random_state=0).sigma2.shape
+    (2, 2)
+    """
+
+    def __init__(
+        self,
+        kernel,
+        X,
+        Y,
+        H,
+        V_fixed,
+        variance_bounds=None,
+        *,
+        regression=None,
+        restricted=False,
+        unit_scale=False,
+    ):
+        self.kernel, self.X, self.Y, self.H, self.V_fixed = kernel, X, Y, H, V_fixed
+        self.regression = regression
+        self.restricted = restricted
+        self.n, self.q = Y.shape
+        self.observed = observed_entries(Y)
+        self.scale = np.maximum(
+            np.nanstd(Y, axis=0), 1e-8 * max(np.nanmax(np.abs(Y)), 1e-300)
+        )
+        if unit_scale:  # parameters in the units of Y (a prior is set in them)
+            self.scale = np.ones(self.q)
+        self.rows, self.cols = np.tril_indices(self.q, -1)
+        self.n_kernel = kernel.n_dims
+        self.fixed_noise = None
+        self.log_sd_bounds = np.tile(_LOG_REL_SD, (self.q, 1))
+        self.log_noise_bounds = _LOG_REL_NOISE
+        self.floor = np.zeros(self.q)
+        if variance_bounds is not None:
+            lo, hi = (np.broadcast_to(v, (self.q,)) for v in variance_bounds)
+            self.floor = np.array(lo, dtype=float)
+            # The free part s^2 spans [0, high - low]; its log needs a bottom.
+            top = 0.5 * np.log(np.maximum(hi - lo, 0.0) / self.scale**2 + 1e-300)
+            self.log_sd_bounds[:, 1] = np.maximum(top, _LOG_REL_SD[0])
+
+    def fix_noise(self, relative):
+        """Hold the noise at ``relative`` times each response's variance."""
+        self.fixed_noise = float(relative)
+        return self
+
+    # ------------------------------------------------------- parameters
+    # params = [kernel theta (k), log relative noise (q), log relative
+    # discrepancy sd (q), correlation-factor z (q (q - 1) / 2, row-major)]
+    def _correlation_factor(self, z):
+        """Unit-row lower-triangular factor of the correlation, and |w_i|."""
+        W = np.eye(self.q)
+        W[self.rows, self.cols] = z
+        norms = np.linalg.norm(W, axis=1)
+        return W / norms[:, None], norms
+
+    def unpack(self, params):
+        k, q = self.n_kernel, self.q
+        theta = params[:k]
+        lam = np.exp(params[k : k + q]) * self.scale**2
+        sd = np.exp(params[k + q : k + 2 * q]) * self.scale
+        U, _ = self._correlation_factor(params[k + 2 * q :])
+        return theta, lam, U * sd[:, None]
+
+    def pack(self, theta, lam, L):
+        """Inverse of :meth:`unpack` for any lower-triangular ``L`` with a
+        positive diagonal (``Sigma_d = diag(floor) + L L'``)."""
+        L = np.asarray(L, dtype=float)
+        sd = np.linalg.norm(L, axis=1)
+        z = (L / np.diag(L)[:, None])[self.rows, self.cols]
+        return np.concatenate(
+            [theta, np.log(lam / self.scale**2), np.log(sd / self.scale), z]
+        )
+
+    def bounds(self):
+        parts = [self.kernel.bounds if self.n_kernel else np.zeros((0, 2))]
+        noise = self.log_noise_bounds
+        if self.fixed_noise is not None:
+            noise = (np.log(self.fixed_noise),) * 2
+        parts += [
+            np.tile(noise, (self.q, 1)),
+            self.log_sd_bounds,
+            np.tile(_CORR_FREE, (len(self.rows), 1)),
+        ]
+        return np.vstack(parts)
+
+    # ------------------------------------------------------- likelihood
+    def evaluate(self, params, eval_gradient=True):
+        """Log-likelihood (and gradient in ``params``) with GLS ``beta``.
+
+        With ``restricted=True`` the restricted likelihood (REML: ``beta``
+        integrated out under a flat prior, which adds ``-log|X' V^-1 X| / 2``
+        and removes the low bias of the maximum-likelihood variances).
+        """
+        n, q = self.n, self.q
+        theta, lam, L = self.unpack(params)
+        k = self.kernel.clone_with_theta(theta) if self.n_kernel else self.kernel
+        if eval_gradient:
+            R, dR = k(self.X, eval_gradient=True)
+        else:
+            R, dR = k(self.X), None
+        sigma2 = L @ L.T + np.diag(self.floor)
+        V = self.V_fixed + np.kron(sigma2, R) + np.kron(np.diag(lam), np.eye(n))
+        obs = self.observed
+        C = cholesky(
+            observed_block(V, obs),
+            what="field-data covariance of module 2",
+            remedy="Use another discrepancy kernel or a larger noise lower bound.",
+        )
+        Xr = observed_rows(np.kron(np.eye(q), self.H), obs)
+        y = observed_rows(self.Y.T.ravel(), obs)
+        m = len(y)
+        Xw = linalg.solve_triangular(C, Xr, lower=True)
+        yw = linalg.solve_triangular(C, y, lower=True)
+        Q, G = linalg.qr(Xw, mode="economic")
+        beta = linalg.solve_triangular(G, Q.T @ yw)
+        rw = yw - Xw @ beta
+        ll = -0.5 * (m * LOG_2PI + log_det_from_cholesky(C) + rw @ rw)
+        if self.restricted:
+            ll -= 0.5 * (2.0 * np.sum(np.log(np.abs(np.diag(G)))) - len(G) * LOG_2PI)
+        self.last = (k, sigma2, lam, beta.reshape(q, -1).T)
+        if not eval_gradient:
+            return ll
+        alpha = linalg.solve_triangular(C, rw, lower=True, trans="T")
+        Vinv = linalg.cho_solve((C, True), np.eye(m))
+        if self.restricted:  # V^-1 -> V^-1 - V^-1 X (X' V^-1 X)^-1 X' V^-1
+            W = linalg.solve_triangular(C, Q, lower=True, trans="T")
+            Vinv -= W @ W.T
+        # d ll = tr(K dV) / 2 over the observed block; the unobserved rows
+        # and columns of K are zero.
+        K = np.outer(alpha, alpha) - Vinv
+        if obs is not None:
+            K_full = np.zeros((n * q, n * q))
+            K_full[np.ix_(obs, obs)] = K
+            K = K_full
+        K = K.reshape(q, n, q, n)
+        M = np.einsum("ab,aibj->ij", sigma2, K)
+        g_kernel = 0.5 * (dR.reshape(n * n, -1).T @ M.ravel())
+        g_sigma = 0.5 * np.einsum("aibj,ij->ab", K, R)
+        # Chain rule through L = diag(sd) U, U_i = w_i / |w_i| (see unpack).
+        g_L = np.tril(2.0 * g_sigma @ L)
+        g_log_sd = np.einsum("ij,ij->i", g_L, L)
+        U, norms = self._correlation_factor(params[self.n_kernel + 2 * q :])
+        sd = np.exp(params[self.n_kernel + q : self.n_kernel + 2 * q]) * self.scale
+        g_U = g_L * sd[:, None]
+        g_W = (g_U - np.einsum("ij,ij->i", g_U, U)[:, None] * U) / norms[:, None]
+        g_lam = 0.5 * np.einsum("aiai->a", K) * lam
+        return ll, np.concatenate(
+            [g_kernel, g_lam, g_log_sd, g_W[self.rows, self.cols]]
+        )
+
+    def _objective(self, params, eval_gradient=True):
+        try:
+            out = self.evaluate(params, eval_gradient)
+        except FactorizationError:
+            return (np.inf, np.zeros_like(params)) if eval_gradient else np.inf
+        if eval_gradient:
+            return -out[0], -out[1]
+        return -out
+
+    def start(self):
+        """Starting point: discrepancy and noise share the residual variance.
+
+        With unmeasured entries, each response's own variance (no
+        correlation between responses).
+        """
+        if self.observed is None:
+            cov = np.atleast_2d(np.cov(self.Y, rowvar=False, bias=True))
+        else:
+            cov = np.diag(np.nanvar(self.Y, axis=0))
+        L0 = np.linalg.cholesky(0.5 * cov + 1e-3 * np.diag(self.scale**2))
+        relative = 0.1 if self.fixed_noise is None else self.fixed_noise
+        start = self.pack(self.kernel.theta, relative * self.scale**2, L0)
+        return np.clip(start, *self.bounds().T)
+
+    def optimize(
+        self,
+        *,
+        optimizer="fmin_l_bfgs_b",
+        n_restarts=0,
+        random_state=None,
+        start=None,
+        max_iter=None,
+        on_start=None,
+    ):
+        """Maximise the likelihood; returns ``self`` with the fitted values.
+
+        Sets ``kernel_``, ``sigma2``, ``noise``, ``beta`` (p, q) and
+        ``log_likelihood``. ``start`` (packed parameters, see :meth:`pack`)
+        replaces the default starting point of :meth:`start`; it is clipped
+        to the bounds. ``max_iter`` bounds the L-BFGS-B iterations of each
+        start (None: scipy's default); reaching it is not warned about, the
+        caller asked for it. ``on_start(k, n, fun)``, when given, is called
+        after the L-BFGS-B run from start ``k`` of ``n`` (``fun`` its
+        minimum of ``-loglik``), for progress reports.
+        """
+        rng = np.random.default_rng(seed_sequence(random_state))
+        bounds = self.bounds()
+        x0 = self.start() if start is None else np.clip(start, *bounds.T)
+        starts = [x0]
+        for _ in range(n_restarts):
+            s = x0.copy()
+            if self.n_kernel:
+                kb = bounds[: self.n_kernel]
+                s[: self.n_kernel] = rng.uniform(kb[:, 0], kb[:, 1])
+            if self.fixed_noise is None:
+                s[self.n_kernel : self.n_kernel + self.q] = rng.uniform(
+                    np.log(1e-4), 0.0, self.q
+                )
+            starts.append(s)
+        if optimizer == "differential_evolution":
+            box = bounds.copy()
+            box[~np.isfinite(box)] = 0.0
+            box[self.n_kernel + 2 * self.q :] = (-3.0, 3.0)  # correlations z
+            result = optimize.differential_evolution(
+                lambda p: self._objective(p, eval_gradient=False),
+                box,
+                seed=int(rng.integers(2**31 - 1)),
+                polish=False,
+                tol=1e-6,
+                maxiter=300,
+            )
+            starts = [result.x]
+        elif optimizer != "fmin_l_bfgs_b":
+            raise ValueError(
+                f"discrepancy optimizer={optimizer!r} is not supported; use one "
+                f"of {DISCREPANCY_OPTIMIZERS}."
+            )
+        best = None
+        for k, s in enumerate(starts, 1):
+            res = optimize.minimize(
+                self._objective,
+                s,
+                jac=True,
+                method="L-BFGS-B",
+                bounds=bounds,
+                options={} if max_iter is None else {"maxiter": max_iter},
+            )
+            capped = max_iter is not None and res.nit >= max_iter
+            if not res.success and np.isfinite(res.fun) and not capped:
+                warnings.warn(
+                    f"The discrepancy likelihood did not fully converge "
+                    f"({res.message}).",
+                    ConvergenceWarning,
+                    stacklevel=2,
+                )
+            if on_start is not None:
+                on_start(k, len(starts), float(res.fun))
+            if best is None or res.fun < best.fun:
+                best = res
+        if not np.isfinite(best.fun):
+            raise FactorizationError(
+                "The module-2 likelihood could not be evaluated at any start: the "
+                "field-data covariance is singular. Check the field data (are "
+                "there duplicated rows?) or use another discrepancy kernel."
+            )
+        self.log_likelihood = self.evaluate(best.x, eval_gradient=False)
+        self.kernel_, self.sigma2, self.noise, self.beta = self.last
+        self.params = best.x
+        return self
+
+
+def check_module2_memory(kernel, residual):
+    """Room for the module-2 likelihood of ``residual`` (n, q), before it runs.
+
+    Each likelihood evaluation holds about eight nq x nq matrices (the
+    covariance, its Cholesky factor and inverse, the gradient weights and
+    their reshapes).
+    """
+    nq, q = residual.size, residual.shape[1]
+    n_params = kernel.n_dims + q + q * (q + 1) // 2
+    check_memory(
+        FLOAT_BYTES * 8 * nq**2,
+        f"The module-2 likelihood (a {nq} x {nq} field-data covariance, "
+        f"{n_params} parameters)",
+        FEWER_FIELD_DATA,
+    )
+
+
+def discrepancy_kernel(kernel, X):
+    """The discrepancy correlation: a clone of ``kernel``, or the default.
+
+    None gives the anisotropic :class:`~skmba.kernels.Gauss` scaled to the
+    standardised field inputs ``X`` (:func:`~skmba.gp._estimator.default_kernel`).
+
+    Examples
+    --------
+    >>> from skmba.kernels import Exp
+    >>> discrepancy_kernel(Exp(2.0), np.zeros((3, 1))).roughness
+    2.0
+    """
+    return default_kernel(X) if kernel is None else clone(kernel)
+
+
+def fit_discrepancy(
+    X_e,
+    residual,
+    V_fixed,
+    *,
+    kernel=None,
+    regression="constant",
+    ranges=None,
+    noise=True,
+    optimizer="fmin_l_bfgs_b",
+    n_restarts=0,
+    random_state=None,
+    start=None,
+    max_iter=None,
+    responses=None,
+    progress=None,
+):
+    """Module 2b (Eq. 4.19): discrepancy GP and noise by maximum likelihood.
+
+    Parameters
+    ----------
+    X_e : ndarray of shape (n, d)
+        Standardised field inputs.
+    residual : ndarray of shape (n, q)
+        Standardised field data minus the prior-integrated emulator mean.
+    V_fixed : ndarray of shape (n q, n q)
+        The prior-integrated emulator covariance.
+    kernel : sklearn Kernel or None
+        Discrepancy correlation (see :func:`discrepancy_kernel`).
+    regression : {"constant", "linear", "quadratic"}
+    ranges : dict or None
+        As returned by :func:`check_discrepancy_ranges` (for all responses);
+        the likelihood is maximised within them.
+    noise : bool
+        Estimate the noise; False holds it at a negligible nugget.
+    optimizer : {"fmin_l_bfgs_b", "differential_evolution"}
+    n_restarts : int
+    random_state : int or None
+    start : callable, default=None
+        ``start(fit) -> packed parameters``: the first starting point (the
+        sensor designer passes the hyperparameters that generated its
+        synthetic data).
+    max_iter : int, default=None
+        Bound on the optimiser's iterations per start.
+    responses : sequence of int, default=None
+        The responses (columns of the simulations) that ``residual`` holds,
+        to restrict the variance ranges; None for all.
+    progress : skmba._core.progress.Progress, default=None
+        A bar of the optimiser's starts and, as detail lines, the
+        log-likelihood each reaches; None is silent.
+
+    Returns
+    -------
+    DiscrepancyFit
+        The optimised fit (``kernel_``, ``sigma2``, ``noise``, ``beta``).
+    """
+    kernel_d = discrepancy_kernel(kernel, X_e)
+    if ranges is not None and ranges["roughness"] is not None:
+        kernel_d = bound_roughness(kernel_d, *ranges["roughness"])
+    variance = None if ranges is None else ranges["variance"]
+    if variance is not None and responses is not None:
+        variance = tuple(v[list(responses)] for v in variance)
+    check_module2_memory(kernel_d, residual)
+    H_d = regression_basis(X_e, regression)
+    disc = DiscrepancyFit(
+        kernel_d, X_e, residual, H_d, V_fixed, variance, regression=regression
+    )
+    if not noise:
+        disc.fix_noise(1e-10)
+    progress = as_progress(progress)
+    n_starts = 1 if optimizer == "differential_evolution" else n_restarts + 1
+    with progress.bar(n_starts, "module 2: discrepancy", unit="start") as bar:
+        return disc.optimize(
+            optimizer=optimizer,
+            n_restarts=n_restarts,
+            random_state=random_state,
+            start=None if start is None else start(disc),
+            max_iter=max_iter,
+            on_start=start_reporter(progress, bar, "module 2"),
+        )

@@ -1,0 +1,228 @@
+"""Can the data tell theta from the discrepancy? ``identifiability_``.
+
+Near the posterior mean ``theta_bar`` the field data depend on theta through
+the emulator's sensitivities ``J = d m(X_e, theta) / d theta`` (nq x r,
+standardised). With only the noise and the emulator's own uncertainty
+``V_0 = Lambda ⊗ I + Sigma_m ⊗ T(theta_bar)`` in the way, the data's
+information on theta is ``J' V_0^-1 J``. A discrepancy adds
+``Sigma_d ⊗ R_d`` and a mean ``(I ⊗ H_d) beta_d`` with a flat prior, which
+leaves ``J' Pi J`` with ``Pi = V^-1 - V^-1 X (X' V^-1 X)^-1 X' V^-1``,
+``V = V_0 + Sigma_d ⊗ R_d``, ``X = I ⊗ H_d``.
+
+``identifiability_[j]`` is the ratio of the linearised posterior standard
+deviations of ``theta_j`` without and with a discrepancy of plausible size:
+each response's discrepancy sd at the 95 % point of its prior
+(:meth:`~skmba.priors._hyperprior.Hyperprior.sd_quantile`), with the fitted
+roughness and correlation between responses. Near 1 the data identify
+theta whatever the discrepancy; near 0 a discrepancy of that size can mimic
+the effect of theta on the observed responses, and the width of theta's
+interval is set by what the prior says about the discrepancy, not by the
+data. Below :data:`IDENTIFIABILITY_THRESHOLD` ``fit`` warns
+(:class:`~skmba.exceptions.NonIdentifiabilityWarning`).
+
+The linearised posterior sd with that discrepancy, ``probe_sd``, also gives
+``theta_robust_interval_`` (:func:`robust_interval`): theta's 95 % interval
+if the model error were of that plausible size, from the posterior mean and
+clipped to the prior's support. Where theta is identified it is about the
+posterior interval; where it is not, most of the prior.
+
+Examples
+--------
+>>> import numpy as np
+>>> information_ratio(np.eye(2)[:, :1], np.eye(2), np.eye(2), np.ones((2, 1)))
+array([0.])
+"""
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import linalg, stats
+
+from skmba._core.linalg import observed_block, observed_rows
+from skmba._core.regression import regression_basis
+from skmba.exceptions import NonIdentifiabilityWarning
+
+#: ``fit`` warns for a parameter whose ``identifiability_`` is below this:
+#: its posterior sd would grow more than threefold under a discrepancy of
+#: plausible size.
+IDENTIFIABILITY_THRESHOLD = 1.0 / 3.0
+#: Prior quantile of the discrepancy sd at which theta is probed.
+PROBE_LEVEL = 0.95
+# Finite-difference step of the sensitivities (standardised theta).
+_STEP = 1e-3
+#: Level of ``theta_robust_interval_`` (that of the validity suite's and
+#: ``summary()``'s intervals).
+ROBUST_LEVEL = 0.95
+# The prior's support, for clipping the robust interval: its central
+# 1 - 1e-9 (the support itself for a bounded prior).
+_SUPPORT = 1.0 - 1e-9
+
+
+@dataclass(frozen=True)
+class Identifiability:
+    """The probe of :func:`identifiability` (standardised theta).
+
+    Attributes
+    ----------
+    ratio : ndarray of shape (r,)
+        ``identifiability_``: linearised posterior sd without over with a
+        discrepancy of plausible size.
+    probe_sd : ndarray of shape (r,)
+        The linearised posterior sd with it (``inf`` where that discrepancy
+        can explain all of theta's effect).
+    """
+
+    ratio: np.ndarray
+    probe_sd: np.ndarray
+
+
+def _marginal_variances(info):
+    """Diagonal of ``info^-1``, ``inf`` where ``info`` is singular there."""
+    values, vectors = np.linalg.eigh(0.5 * (info + info.T))
+    tol = 1e-12 * max(values.max(), 1e-300)
+    inv = np.where(values > tol, 1.0 / np.maximum(values, tol), np.inf)
+    with np.errstate(invalid="ignore"):
+        out = np.einsum("ij,j,ij->i", vectors, inv, vectors)
+    return np.where(np.isnan(out), np.inf, out)
+
+
+def information_ratio(J, V0, K_d, X_d):
+    """Linearised posterior sd ratio, without over with the discrepancy.
+
+    The arguments are those of :func:`linearised_sds`.
+    """
+    sd0, sd1 = linearised_sds(J, V0, K_d, X_d)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ratio = sd0 / sd1
+    return np.where(np.isfinite(ratio), ratio, 0.0)
+
+
+def linearised_sds(J, V0, K_d, X_d):
+    """Linearised posterior sds of theta, without and with the discrepancy.
+
+    ``sqrt(diag((J' V0^-1 J)^-1))`` and ``sqrt(diag((J' Pi J)^-1))``
+    (module docstring), ``inf`` where the information is singular.
+
+    Parameters
+    ----------
+    J : ndarray of shape (m, r)
+        Sensitivities of the data to theta.
+    V0 : ndarray of shape (m, m)
+        Covariance without a discrepancy.
+    K_d : ndarray of shape (m, m)
+        The discrepancy's covariance.
+    X_d : ndarray of shape (m, p)
+        The discrepancy's mean basis (flat prior on its coefficients).
+
+    Returns
+    -------
+    sd0, sd1 : ndarray of shape (r,)
+    """
+    C0 = linalg.cholesky(V0, lower=True)
+    Jw = linalg.solve_triangular(C0, J, lower=True)
+    var0 = _marginal_variances(Jw.T @ Jw)
+    C1 = linalg.cholesky(V0 + K_d, lower=True)
+    Jw1 = linalg.solve_triangular(C1, J, lower=True)
+    Xw1 = linalg.solve_triangular(C1, X_d, lower=True)
+    Q, _ = np.linalg.qr(Xw1)
+    Jp = Jw1 - Q @ (Q.T @ Jw1)
+    var1 = _marginal_variances(Jp.T @ Jp)
+    return np.sqrt(var0), np.sqrt(var1)
+
+
+def identifiability(model, theta, hyperprior):
+    """``identifiability_`` of a fitted global model at ``theta`` (standardised).
+
+    Parameters
+    ----------
+    model : GlobalModel
+        At the module-2 mode (its roughness, correlation and noise are used).
+    theta : ndarray of shape (r,)
+    hyperprior : Hyperprior
+
+    Returns
+    -------
+    Identifiability
+    """
+    emulator, X_e, q, n = model.emulator, model.X_e, model.q, model.n
+    r = theta.size
+    steps = np.eye(r) * _STEP
+    thetas = np.vstack([theta + steps, theta - steps, theta[None, :]])
+    cond = emulator.conditional(X_e, thetas)
+    means = cond.mean()  # (2r + 1, n, q)
+    J = ((means[:r] - means[r : 2 * r]) / (2 * _STEP)).transpose(2, 1, 0)
+    J = J.reshape(q * n, r)  # response-slowest, as vec(Y)
+    T = cond.correlation(model.nugget)[-1]
+    V0 = np.kron(model.sigma2_m, T) + np.kron(np.diag(model.noise), np.eye(n))
+    sd = np.sqrt(np.clip(np.diag(model.sigma2_d), 1e-300, None))
+    corr = model.sigma2_d / np.outer(sd, sd)
+    big = hyperprior.sd_quantile(PROBE_LEVEL, q)
+    K_d = np.kron(corr * np.outer(big, big), model.kernel_d(X_e))
+    X_d = np.kron(np.eye(q), regression_basis(X_e, model.regression_d))
+    obs = model.observed  # the measured entries only
+    args = (
+        observed_rows(J, obs),
+        observed_block(V0, obs),
+        observed_block(K_d, obs),
+        observed_rows(X_d, obs),
+    )
+    return Identifiability(information_ratio(*args), linearised_sds(*args)[1])
+
+
+def robust_interval(mean, probe_sd, prior, level=ROBUST_LEVEL):
+    """``theta_robust_interval_``: ``mean -+ z probe_sd``, within the prior.
+
+    Parameters
+    ----------
+    mean : ndarray of shape (r,)
+        The posterior mean (user units).
+    probe_sd : ndarray of shape (r,)
+        :attr:`Identifiability.probe_sd` in user units.
+    prior : skmba prior object
+    level : float
+        Central probability of the Gaussian interval.
+
+    Returns
+    -------
+    ndarray of shape (r, 2)
+        Lower and upper ends, clipped to the prior's support (its central
+        ``1 - 1e-9`` for an unbounded prior).
+
+    Examples
+    --------
+    >>> from scipy import stats
+    >>> from skmba.priors._theta import check_prior
+    >>> prior = check_prior([stats.uniform(0, 10), stats.uniform(0, 10)])
+    >>> robust_interval(np.array([5.0, 5.0]), np.array([1.0, np.inf]), prior)
+    array([[ 3.04003602,  6.95996398],
+           [ 0.        , 10.        ]])
+    """
+    half = stats.norm.ppf(0.5 + 0.5 * level) * np.asarray(probe_sd, dtype=float)
+    ends = np.column_stack([mean - half, mean + half])
+    support = prior.bounds(_SUPPORT)
+    return np.clip(ends, support[:, :1], support[:, 1:])
+
+
+def warn_if_confounded(values, names):
+    """Warn for each parameter below :data:`IDENTIFIABILITY_THRESHOLD`."""
+    weak = [
+        f"{name} ({value:.2g})"
+        for name, value in zip(names, values, strict=True)
+        if value < IDENTIFIABILITY_THRESHOLD
+    ]
+    if not weak:
+        return
+    warnings.warn(
+        f"The field data cannot tell {', '.join(weak)} from the model "
+        "discrepancy (identifiability_ below "
+        f"{IDENTIFIABILITY_THRESHOLD:.2f}): a discrepancy of plausible size "
+        "can mimic its effect on the observed responses, so its interval "
+        "reflects the prior on the discrepancy (discrepancy_prior) more than "
+        "the data, and can miss the true value if the model error is larger "
+        "than that prior allows. To identify it, measure other responses "
+        "(PreposteriorDesigner ranks them), add prior information on it, or "
+        "constrain the discrepancy.",
+        NonIdentifiabilityWarning,
+        stacklevel=3,
+    )

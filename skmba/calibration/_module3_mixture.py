@@ -1,0 +1,224 @@
+"""Module 3 with the module-2 hyperparameters integrated out.
+
+:class:`ModelMixture` is the global model of :mod:`skmba.calibration._module3_posterior`
+at each draw ``phi_k`` of
+:func:`~skmba.calibration._module2_posterior.fit_hyperposterior`, with the likelihood
+``log sum_k w_k p(data | theta, phi_k)``. It has the interface of
+:class:`~skmba.calibration._module3_likelihood.GlobalModel` that
+:class:`~skmba.calibration._module3_posterior.LogPosterior` and the predictions use; the
+emulator given the simulations is computed once per theta for all draws. Module 4
+predicts with one draw per posterior theta, picked with probability ``p(phi_k | theta,
+data)`` (:meth:`ModelMixture.draw_weights`).
+
+Examples
+--------
+``tests/calibration/test_module3_mixture.py`` checks the mixture against its components.
+"""
+
+import copy
+
+import numpy as np
+from joblib import Parallel, delayed
+from scipy import special
+
+from skmba._core.linalg import FactorizationError, n_workers
+from skmba._core.threads import BlasTask
+from skmba.calibration._module3_batch_likelihood import stack_chunks
+
+#: A module-2 draw whose weight ``p(phi_k | theta, data)`` stays below this
+#: around the posterior of theta is left out of the sampler's mixture
+#: (:meth:`ModelMixture.restricted`).
+IDLE_WEIGHT = 1e-10
+#: Thetas per joblib task of :meth:`ModelMixture.spread_component_log_likelihoods`:
+#: fixed by the problem, so that the tasks, hence the bits, do not depend on
+#: ``n_jobs``.
+TASK_THETAS = 25
+
+
+class ModelMixture:
+    """Global models over draws of the module-2 hyperparameters.
+
+    Parameters
+    ----------
+    base : GlobalModel
+        The global model at the mode of the hyperparameters.
+    draws : HyperposteriorDraws
+    """
+
+    def __init__(self, base, draws):
+        self.base = base
+        self.models = [base.with_discrepancy(c) for c in draws.components]
+        self.log_weights = np.asarray(draws.log_weights, dtype=float)
+        self._S_fixed = None  # the stacked fixed parts, made on first use
+        for name in ("N", "n", "q", "P", "X_e", "noise", "emulator"):
+            setattr(self, name, getattr(base, name))
+        # What a new observation adds: the noise variances' posterior mean.
+        # (None: not estimated, a mixture that does not predict.)
+        self.predictive_noise = (
+            None if draws.noise_mean is None else np.asarray(draws.noise_mean, float)
+        )
+
+    def __copy__(self):
+        other = object.__new__(type(self))
+        other.__dict__.update(self.__dict__)
+        other.models = [copy.copy(m) for m in self.models]
+        other.base = copy.copy(self.base)
+        return other
+
+    def component_log_likelihoods(self, theta):
+        """``log w_k + log p(data | theta, phi_k)`` for every draw ``k``.
+
+        Raises
+        ------
+        FactorizationError
+            When no draw can be evaluated at ``theta`` (saying why).
+        """
+        theta = np.asarray(theta, dtype=float).ravel()
+        values = self.batch_component_log_likelihoods(theta[None, :])[0]
+        if not np.any(np.isfinite(values)):
+            self.base.log_likelihood(theta)  # raises, saying why
+            raise FactorizationError(
+                "The Schur complement S(theta) is not positive definite at any "
+                "module-2 draw."
+            )
+        return values
+
+    def batch_component_log_likelihoods(self, thetas):
+        """``log w_k + log p(data | theta_b, phi_k)`` (B, K) at the rows of
+        ``thetas`` (B, r): ``-inf`` where draw ``k``'s Schur complement is
+        not positive definite.
+
+        The emulator given the simulations is computed once per theta for
+        all draws, and the Schur complements of every theta and draw are
+        factored as one stack
+        (:func:`~skmba.calibration._module3_batch_likelihood.schur_log_likelihoods`).
+
+        Raises
+        ------
+        FactorizationError
+            When the regression is rank deficient at one of ``thetas``.
+        """
+        return self._stacked(thetas, None)
+
+    def spread_component_log_likelihoods(self, thetas, n_jobs=None):
+        """:meth:`batch_component_log_likelihoods` in joblib tasks.
+
+        For the checks and module-4 weights at many posterior draws (a
+        few hundred thetas times every draw), which would otherwise leave
+        all but one core idle. The thetas go in tasks of
+        :data:`TASK_THETAS`, the same for any ``n_jobs`` (``None`` or 1:
+        one after the other in this process), each under the BLAS threads
+        of :class:`~skmba._core.threads.BlasTask`: the values are bit-identical
+        for any ``n_jobs`` and backend below its threshold order.
+        """
+        thetas = np.atleast_2d(thetas)
+        groups = [
+            thetas[i : i + TASK_THETAS] for i in range(0, len(thetas), TASK_THETAS)
+        ]
+        task = BlasTask(_component_values, self.n * self.q, n_jobs)
+        with task.held():
+            if n_workers(n_jobs) <= 1 or len(groups) == 1:
+                parts = [task(self, g) for g in groups]
+            else:
+                parts = Parallel(n_jobs=n_jobs)(delayed(task)(self, g) for g in groups)
+        return np.concatenate(parts)
+
+    def labelled_log_likelihoods(self, thetas, labels):
+        """``log w_k + log p(data | theta_b, phi_k)`` with ``k = labels[b]``
+        (B,): one draw per theta, the joint density of theta and the draw
+        that a sampler over both needs (:mod:`skmba.mcmc._chain`).
+
+        Raises
+        ------
+        FactorizationError
+            When the regression is rank deficient at one of ``thetas``.
+        """
+        labels = np.asarray(labels, dtype=int)
+        return self._stacked(thetas, labels)
+
+    def _stacked(self, thetas, labels):
+        """Every draw at each theta (``labels`` None: (B, K)), or draw
+        ``labels[b]`` at ``thetas[b]`` ((B,)), as stacks of factorisations."""
+        base = self.base
+        if self._S_fixed is None:
+            self._S_fixed = np.stack([mdl.S_fixed for mdl in self.models])
+            self._noise_floor = min(mdl.noise_floor for mdl in self.models)
+        K, m = self._S_fixed.shape[:2]
+        per_theta = K if labels is None else 1
+        out = np.empty((len(thetas), per_theta))
+        for chunk in stack_chunks(len(thetas), per_theta, m, base.P + 1):
+            cond, terms = base.conditionals(thetas[chunk])
+            Z = base.field_rows(cond)
+            B = len(terms)
+            if labels is None:
+                S = (self._S_fixed[None] + terms[:, None]).reshape(B * K, m, m)
+                Z = np.broadcast_to(Z[:, None], (B, K, *Z.shape[1:])).reshape(
+                    B * K, *Z.shape[1:]
+                )
+            else:
+                S = self._S_fixed[labels[chunk]] + terms
+            values = base.stacked_log_likelihoods(S, Z, self._noise_floor)
+            out[chunk] = values.reshape(B, per_theta)
+        if labels is None:
+            return self.log_weights + out
+        return self.log_weights[labels] + out[:, 0]
+
+    def log_likelihood(self, theta):
+        """``log sum_k w_k p(data | theta, phi_k)``."""
+        # numpy's reduction: scipy's logsumexp costs more than the sum here.
+        return float(np.logaddexp.reduce(self.component_log_likelihoods(theta)))
+
+    def log_likelihoods(self, thetas):
+        """:meth:`log_likelihood` at the rows of ``thetas`` (B, r): (B,),
+        ``-inf`` where no draw can be evaluated."""
+        values = self.batch_component_log_likelihoods(thetas)
+        return np.logaddexp.reduce(values, axis=1)
+
+    def draw_weights(self, theta):
+        """``p(phi_k | theta, data)`` over the draws (sums to one)."""
+        values = self.component_log_likelihoods(theta)
+        return np.exp(values - special.logsumexp(values))
+
+    def restricted(self, thetas, tol=IDLE_WEIGHT):
+        """The mixture of the draws that carry weight at some of ``thetas``.
+
+        A draw is kept when ``p(phi_k | theta, data)`` exceeds ``tol`` at
+        one of ``thetas`` at least (standardised, each of shape (r,)); the
+        mixture is returned as it is when every draw is kept (or no theta
+        can be evaluated). At each of ``thetas``, the log likelihood of the
+        restricted mixture differs from the full one by less than
+        ``K tol``.
+
+        Returns
+        -------
+        mixture : ModelMixture
+        kept : ndarray of int
+            The indices of the draws kept.
+        """
+        weights = []
+        for theta in thetas:
+            try:
+                weights.append(self.draw_weights(theta))
+            except FactorizationError:
+                continue  # no draw can be evaluated there: no evidence
+        if not weights:
+            return self, np.arange(len(self.models))
+        kept = np.flatnonzero(np.max(weights, axis=0) > tol)
+        if len(kept) == len(self.models):
+            return self, kept
+        other = object.__new__(type(self))
+        other.__dict__.update(self.__dict__)
+        other.models = [self.models[k] for k in kept]
+        other.log_weights = self.log_weights[kept]
+        other._S_fixed = None
+        return other, kept
+
+    def effective_draws(self, theta):
+        """Kish's effective number of draws at ``theta`` (1 to ``K``)."""
+        w = self.draw_weights(theta)
+        return float(1.0 / np.sum(w**2))
+
+
+def _component_values(mixture, thetas):
+    """A joblib task of :meth:`ModelMixture.spread_component_log_likelihoods`."""
+    return mixture.batch_component_log_likelihoods(thetas)

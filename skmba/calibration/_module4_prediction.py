@@ -1,0 +1,279 @@
+"""Module 4 of the modular Bayesian approach: predictions over the posterior.
+
+At each ``theta`` the model output, the discrepancy, their sum (the true process) and a
+new observation are jointly Gaussian with all data (simulations and field data, thesis
+Eqs. 4.33-4.45, with the global model of :mod:`skmba.calibration._module3_posterior`);
+:func:`conditional_moments` gives their kriging moments from the block-whitened global
+model. Averaged over the posterior of ``theta`` by the laws of total expectation and
+variance (:func:`predict_component`), on a :class:`PredictionRule`: a quadrature rule
+for one parameter, thinned MCMC draws otherwise.
+
+Everything here is in standardised units.
+
+Examples
+--------
+>>> import numpy as np
+>>> from skmba.calibration._module4_prediction import PredictionRule
+>>> rule = PredictionRule.equal_weights(np.arange(10.0)[:, None], 5)
+>>> rule.thetas.ravel(), rule.weights
+(array([0., 2., 4., 6., 8.]), array([0.2, 0.2, 0.2, 0.2, 0.2]))
+"""
+
+import copy
+from dataclasses import dataclass
+
+import numpy as np
+from joblib import Parallel, delayed
+from scipy import linalg, special
+
+from skmba._core.linalg import (
+    FLOAT_BYTES,
+    FactorizationError,
+    check_memory,
+    n_workers,
+    observed_rows,
+)
+from skmba._core.regression import regression_basis
+from skmba._core.threads import BlasTask
+from skmba._core.validation import seed_sequence
+
+COMPONENTS = ("model", "discrepancy", "reality", "observation")
+_N_PREDICT_DRAWS = 200  # posterior draws used by the predictions (MCMC)
+_N_PREDICT_NODES = 41  # quadrature nodes used by them (one parameter)
+_PREDICT_CHUNK = 10  # posterior draws per task
+
+
+@dataclass(frozen=True)
+class PredictionRule:
+    """Posterior values of theta (user units) and their weights.
+
+    Attributes
+    ----------
+    thetas : ndarray of shape (m, r)
+    weights : ndarray of shape (m,)
+        Non-negative, summing to one.
+    """
+
+    thetas: np.ndarray
+    weights: np.ndarray
+    draws: np.ndarray | None = None  # module-2 draw per theta (a ModelMixture)
+
+    @classmethod
+    def equal_weights(cls, samples, n_draws=_N_PREDICT_DRAWS):
+        """At most ``n_draws`` evenly thinned draws, equally weighted."""
+        step = max(1, len(samples) // n_draws)
+        thetas = samples[::step][:n_draws]
+        return cls(thetas, np.full(len(thetas), 1.0 / len(thetas)))
+
+    @classmethod
+    def quadrature(cls, log_posterior, interval, n_nodes=_N_PREDICT_NODES):
+        """Gauss-Legendre on ``interval`` weighted by the posterior density.
+
+        A smaller rule than the posterior's own: each node costs a
+        factorisation at prediction time.
+        """
+        lo, hi = interval
+        x, v = np.polynomial.legendre.leggauss(n_nodes)
+        nodes = 0.5 * (hi - lo) * x + 0.5 * (hi + lo)
+        logp = np.array([log_posterior(np.array([u])) for u in nodes])
+        v = v * np.exp(logp - np.max(logp))
+        return cls(nodes[:, None], v / v.sum())
+
+
+def prediction_rule(
+    posterior, log_posterior, random_state=None, with_draws=True, n_jobs=None
+):
+    """The module-4 rule of a
+    :class:`~skmba.calibration._module3_posterior.PosteriorResult`.
+
+    Over a :class:`~skmba.calibration._module3_mixture.ModelMixture`, each ``theta`` of
+    the rule comes with the module-2 draws ``phi_k``: every draw with its weight
+    ``p(phi_k | theta, data)`` for a quadrature rule (draws below 1e-4 of their node's
+    weight left out), one draw per ``theta`` picked with that probability (systematic
+    sampling, seeded by ``random_state``) for MCMC. ``with_draws=False`` leaves them out
+    (a rule that only integrates over theta, as the propagated module 2's first pass).
+    The weights at the rule's thetas are computed in ``n_jobs`` joblib tasks.
+    """
+    mixture = log_posterior.model
+    if posterior.method == "quadrature":
+        rule = PredictionRule.quadrature(log_posterior, posterior.interval)
+    else:
+        rule = PredictionRule.equal_weights(posterior.samples)
+    if not hasattr(mixture, "draw_weights") or not with_draws:
+        return rule
+    scaler = log_posterior.scaler
+    given = _draw_weights(mixture, scaler.theta(rule.thetas), n_jobs)
+    if posterior.method == "quadrature":
+        keep = given >= 1e-4 * given.max(axis=1, keepdims=True)
+        i, k = np.nonzero(keep)
+        weights = rule.weights[i] * given[i, k]
+        return PredictionRule(rule.thetas[i], weights / weights.sum(), k)
+    rng = np.random.default_rng(seed_sequence(random_state))
+    u = (np.arange(len(given)) + rng.uniform()) / len(given)
+    cdf = np.cumsum(given, axis=1)
+    picked = (cdf < rng.permutation(u)[:, None]).sum(axis=1)
+    draws = np.minimum(picked, cdf.shape[1] - 1)
+    return PredictionRule(rule.thetas, rule.weights, draws)
+
+
+def _draw_weights(mixture, thetas, n_jobs=None):
+    """``p(phi_k | theta, data)`` (m, K) at the rows of ``thetas``
+    (standardised), evaluated together (in ``n_jobs`` joblib tasks); one by
+    one (raising, saying why) when some theta has no draw that can be
+    evaluated."""
+    try:
+        values = mixture.spread_component_log_likelihoods(thetas, n_jobs)
+    except FactorizationError:
+        values = None
+    if values is None or not np.all(np.isfinite(values).any(axis=1)):
+        return np.array([mixture.draw_weights(t) for t in thetas])
+    return np.exp(values - special.logsumexp(values, axis=1, keepdims=True))
+
+
+def conditional_moments(model, theta, X, component, return_var=True):
+    """Moments at ``X`` (s, d) given ``theta`` (standardised) and all data.
+
+    Parameters
+    ----------
+    model : GlobalModel
+    theta : ndarray of shape (r,)
+    X : ndarray of shape (s, d)
+    component : {"model", "discrepancy", "reality", "observation"}
+        ``reality`` is the true process ``y_m + delta``; ``observation``
+        adds the measurement noise (a new field measurement, Eq. 4.36).
+    return_var : bool
+        Also return the marginal variances.
+
+    Returns
+    -------
+    mean : ndarray of shape (s, q)
+    var : ndarray of shape (s, q)
+        Only when ``return_var`` is True.
+    """
+    w = model.whiten(theta)
+    q, s = model.q, len(X)
+    with_model = component in ("model", "reality", "observation")
+    with_delta = component in ("discrepancy", "reality", "observation")
+    P_s = np.hstack([X, np.repeat(w.theta.reshape(1, -1), s, axis=0)])
+    # Cross-covariances with the data, whitened block by block.
+    top = np.zeros((model.N * q, s * q))
+    bot = np.zeros((model.n * q, s * q))
+    h_m = np.zeros((s, model.p_m))
+    h_d = np.zeros((s, model.p_d))
+    prior_diag = np.zeros((s, q))
+    if with_model:
+        K_ms = linalg.solve_triangular(
+            model.C_m, model.kernel_m(model.X_m, P_s), lower=True
+        )
+        top = np.kron(model.L_sm.T, K_ms)  # L_A^-1 (Sigma_m ⊗ r_ms)
+        bot = np.kron(model.sigma2_m, model.kernel_m(w.P_e, P_s) - w.Rt.T @ K_ms)
+        h_m = regression_basis(P_s, model.regression_m)
+        prior_diag += np.outer(model.kernel_m.diag(P_s), np.diag(model.sigma2_m))
+    if with_delta:
+        bot = bot + np.kron(model.sigma2_d, model.kernel_d(model.X_e, X))
+        h_d = regression_basis(X, model.regression_d)
+        prior_diag += np.outer(model.kernel_d.diag(X), np.diag(model.sigma2_d))
+    if component == "observation":
+        prior_diag += model.noise
+    bot = linalg.solve_triangular(w.L_S, observed_rows(bot, model.observed), lower=True)
+    h = np.hstack([np.kron(np.eye(q), h_m), np.kron(np.eye(q), h_d)])  # (sq, P)
+    mean = h @ w.beta + top.T @ w.resid_top + bot.T @ w.resid_bot
+    mean = mean.reshape(q, s).T
+    if not return_var:
+        return mean
+    U = h.T - model.X_top_full.T @ top - w.X_bot.T @ bot  # (P, sq)
+    Ut = linalg.solve_triangular(w.G, U, trans="T")
+    reduction = np.sum(top**2, axis=0) + np.sum(bot**2, axis=0)
+    var = prior_diag.T.ravel() - reduction + np.sum(Ut**2, axis=0)
+    return mean, np.clip(var.reshape(q, s).T, 0.0, None)
+
+
+def _predict_chunk(models, thetas, Xs, component, return_std):
+    """Conditional moments at several posterior draws (one task).
+
+    A shallow copy gives the task its own factorisation cache, so that tasks
+    sharing the model under a thread-based backend cannot see each other's.
+    Run as a :class:`~skmba._core.threads.BlasTask` of the field block's order.
+    """
+    own = {}
+    return [
+        conditional_moments(
+            own.setdefault(id(model), copy.copy(model)),
+            theta,
+            Xs,
+            component,
+            return_var=return_std,
+        )
+        for model, theta in zip(models, thetas, strict=True)
+    ]
+
+
+def predict_component(model, rule, Xs, component, *, return_std, n_jobs=None):
+    """Posterior-averaged moments of a component at ``Xs`` (standardised).
+
+    Parameters
+    ----------
+    model : GlobalModel
+    rule : PredictionRule
+        Its ``thetas`` already standardised.
+    Xs : ndarray of shape (s, d)
+    component : {"model", "discrepancy", "reality", "observation"}
+    return_std : bool
+    n_jobs : int, default=None
+        Posterior draws in parallel through joblib.
+
+    Returns
+    -------
+    mean : ndarray of shape (s, q)
+    var : ndarray of shape (s, q) or None
+        Law of total variance over the posterior (Eqs. 4.34, 4.41).
+    """
+    thetas, w = rule.thetas, rule.weights
+    if component == "observation":
+        # A new observation is the reality plus noise independent of it:
+        # its variance adds the noise variances' posterior mean (over the
+        # module-2 hyperparameters, see ``model.predictive_noise``).
+        mean, var = predict_component(
+            model, rule, Xs, "reality", return_std=return_std, n_jobs=n_jobs
+        )
+        return mean, None if var is None else var + model.predictive_noise
+    if rule.draws is None:
+        models = [model] * len(thetas)
+    else:
+        models = [model.models[k] for k in rule.draws]
+    s, q, n, N = len(Xs), model.q, model.n, model.N
+    # Per posterior draw in flight: the (N q, s q) and (n q, s q)
+    # whitened cross-covariances (and copies), the (N, s) kernels and
+    # the (P, s q) regression terms; then the moments of all draws.
+    per_draw = 2 * N * s + N * q * s * q + 3 * n * q * s * q + 3 * model.P * s * q
+    needed = FLOAT_BYTES * (
+        min(n_workers(n_jobs), len(thetas)) * per_draw + 5 * len(thetas) * s * q
+    )
+    check_memory(
+        needed,
+        f"The prediction at {s} points ({len(thetas)} posterior draws)",
+        "Predict at fewer points per call (split X into batches of rows), "
+        "or use a smaller n_jobs.",
+    )
+    task = BlasTask(_predict_chunk, n * q, n_jobs)
+    with task.held():
+        chunks = Parallel(n_jobs=n_jobs)(
+            delayed(task)(
+                models[i : i + _PREDICT_CHUNK],
+                thetas[i : i + _PREDICT_CHUNK],
+                Xs,
+                component,
+                return_std,
+            )
+            for i in range(0, len(thetas), _PREDICT_CHUNK)
+        )
+    results = [moments for chunk in chunks for moments in chunk]
+    if not return_std:
+        return np.tensordot(w, np.stack(results), axes=1), None
+    means = np.stack([m for m, _ in results])
+    variances = np.stack([v for _, v in results])
+    mean = np.tensordot(w, means, axes=1)
+    var = np.tensordot(w, variances, axes=1) + np.tensordot(
+        w, (means - mean) ** 2, axes=1
+    )
+    return mean, var

@@ -1,0 +1,642 @@
+"""The simulation runs: their design, running the simulator, checks.
+
+Module 1 needs simulations ``y_sim = f(X_sim, theta_sim)``. They are given
+(a precomputed dataset), run by the calibrator on a Latin hypercube over
+the range of the field inputs times the prior's support, or both; the
+result is one :class:`SimulationData`. The checks here make sure the runs
+can support an emulator and cover the prior and the field inputs.
+
+Examples
+--------
+>>> import numpy as np
+>>> from skmba.calibration._simulations import run_simulator
+>>> runs = run_simulator(lambda X, t: X * t, np.ones((2, 1)), np.full((2, 1), 3.0), 1)
+>>> runs.y
+array([[3.],
+       [3.]])
+"""
+
+import time
+import warnings
+from collections import Counter
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+from scipy import sparse, stats
+from sklearn.utils.validation import check_array
+
+from skmba._core.progress import as_progress
+from skmba._core.regression import n_regression_terms
+
+# Share of the prior mass that must lie in the simulated range of theta
+# (less: error), and share that may lie outside it without a warning (the
+# simulator's own design leaves out 1e-3 per unbounded parameter).
+_PRIOR_MASS_ERROR = 0.01
+_PRIOR_MASS_WARNING = 0.02
+
+
+class SimulationFailure(NamedTuple):
+    """A simulation run that gave no usable output.
+
+    ``pandas.DataFrame(cal.simulation_failures_)`` tabulates them.
+
+    Attributes
+    ----------
+    source : {"simulator", "y_sim"}
+        A run of the simulator in this fit, or a row of the given ``y_sim``.
+    index : int
+        The run's row in the simulator's design, or in ``y_sim``.
+    X : ndarray of shape (d,)
+    theta : ndarray of shape (r,)
+    error : str
+        The exception (``"ZeroDivisionError: mesh collapsed"``) or
+        ``"non-finite output [...]"``.
+    """
+
+    source: str
+    index: int
+    X: np.ndarray
+    theta: np.ndarray
+    error: str
+
+
+@dataclass(frozen=True)
+class SimulationData:
+    """The successful simulation runs in user units, and the failed ones.
+
+    Attributes
+    ----------
+    X : ndarray of shape (N, d)
+    theta : ndarray of shape (N, r)
+    y : ndarray of shape (N, q)
+    n_simulator_runs : int
+        How many of the runs (the last ones) the simulator made in this fit.
+    failures : tuple of SimulationFailure
+        The runs left out: the given ``y_sim`` rows with NaN or inf, then
+        the simulator's failed runs.
+    n_simulator_failures : int
+        How many of the failures are the simulator's.
+    first_exception : Exception or None
+        The first exception the simulator raised (chained to an error when
+        every run failed).
+    """
+
+    X: np.ndarray
+    theta: np.ndarray
+    y: np.ndarray
+    n_simulator_runs: int = 0
+    failures: tuple = ()
+    n_simulator_failures: int = 0
+    first_exception: BaseException | None = None
+
+
+# ---------------------------------------------------------------- checks
+def nonfinite_rows(A):
+    """Indices of the rows of ``A`` with a NaN or an infinity.
+
+    Examples
+    --------
+    >>> nonfinite_rows(np.array([[1.0], [np.nan]]))
+    array([1])
+    """
+    return np.flatnonzero(~np.all(np.isfinite(A), axis=1))
+
+
+def _rows_text(bad):
+    return f"{bad[:10].tolist()}{' (and more)' if bad.size > 10 else ''}"
+
+
+def check_finite_rows(A, name, fix):
+    """Raise a ValueError naming ``name``, the bad rows and ``fix``."""
+    bad = nonfinite_rows(A)
+    if bad.size:
+        raise ValueError(f"{name} contains NaN or inf in rows {_rows_text(bad)}: {fix}")
+
+
+def as_array(A):
+    """``np.asarray(A)``, or None for what ``check_array`` should report.
+
+    Sparse matrices and ragged or otherwise unconvertible input are left to
+    scikit-learn's ``check_array``/``validate_data`` and their messages.
+    """
+    if A is None or sparse.issparse(A):
+        return None
+    try:
+        return np.asarray(A)
+    except (TypeError, ValueError):
+        return None
+
+
+def check_2d(A, name, shape):
+    """``A`` must be a 2-D array; the message says how to reshape a vector."""
+    A = as_array(A)
+    if A is None:
+        return
+    ndim = A.ndim
+    if ndim != 2:
+        fix = (
+            f"use {name}.reshape(-1, 1) for a single column"
+            if ndim == 1
+            else "pass one row per sample"
+        )
+        raise ValueError(
+            f"{name} must be a 2-D array of shape {shape}, got {ndim}-D with "
+            f"shape {A.shape}; {fix}."
+        )
+
+
+# ------------------------------------------------------------- simulator
+def _check_simulator_output(Y, n, q, first=0):
+    try:
+        Y = np.asarray(Y, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(
+            f"simulator returned a {type(Y).__name__} that is not an array of "
+            f"numbers ({exc}); it must return a float array of shape "
+            f"({n}, {q if q is not None else 'q'}): one row per run and one "
+            "column per response."
+        ) from exc
+    if Y.ndim == 1 and (q in (None, 1)):
+        Y = Y.reshape(-1, 1)
+    if Y.ndim != 2 or Y.shape[0] != n or (q is not None and Y.shape[1] != q):
+        expected = f"({n}, {q if q is not None else 'q'})"
+        raise ValueError(
+            f"simulator returned an array of shape {np.shape(Y)} for runs "
+            f"{first}..{first + n - 1}; it must return {expected}: one row per "
+            "run and one "
+            "column per response."
+        )
+    return Y
+
+
+@dataclass(frozen=True)
+class SimulatorRuns:
+    """What :func:`run_simulator` got: outputs, NaN rows where runs failed.
+
+    Attributes
+    ----------
+    y : ndarray of shape (n, q)
+        The outputs; the rows of failed runs are NaN.
+    errors : dict
+        ``{run: exception or message}`` for the failed runs.
+    n_calls : int
+        Calls of the simulator (1 when the batch succeeds).
+    batch_error : Exception or None
+        The batch call's exception when it raised.
+    """
+
+    y: np.ndarray
+    errors: dict
+    n_calls: int
+    batch_error: BaseException | None
+
+
+def _output_text(row):
+    values = ", ".join(f"{v:.4g}" for v in row[:6])
+    return f"non-finite output [{values}{', ...' if len(row) > 6 else ''}]"
+
+
+def run_simulator(simulator, X, theta, q):
+    """Run ``simulator(X, theta)`` on blocks of runs; keep what succeeds.
+
+    The whole design is one call. When a call raises, its block is halved
+    and each half called again, down to single runs: a simulator that fails
+    on some runs costs about ``2 log2(n)`` calls per failure, and every
+    successful run is kept. A run fails when its call raises alone, or when
+    its output row holds NaN or inf. An output of the wrong shape or type
+    is an error of the simulator's contract and raises at once.
+
+    Returns
+    -------
+    SimulatorRuns
+
+    Examples
+    --------
+    >>> def model(X, t):
+    ...     if np.any(t > 2):
+    ...         raise ArithmeticError("solver diverged")
+    ...     return X * t
+    >>> runs = run_simulator(model, np.ones((4, 1)), np.arange(4.0)[:, None], 1)
+    >>> runs.y.ravel().tolist(), sorted(runs.errors)
+    ([0.0, 1.0, 2.0, nan], [3])
+    """
+    n = len(X)
+    Y = np.full((n, q), np.nan)
+    errors = {}
+    n_calls = 0
+    batch_error = None
+    blocks = [np.arange(n)]
+    while blocks:
+        rows = blocks.pop()
+        n_calls += 1
+        try:
+            out = simulator(X[rows], theta[rows])
+        except Exception as exc:
+            if len(rows) == n:
+                batch_error = exc
+            if len(rows) == 1:
+                errors[int(rows[0])] = exc
+            else:
+                half = len(rows) // 2
+                blocks += [rows[half:], rows[:half]]
+            continue
+        Y[rows] = _check_simulator_output(out, len(rows), q, rows[0])
+    for i in nonfinite_rows(Y):
+        errors.setdefault(int(i), _output_text(Y[i]))
+    Y[list(errors)] = np.nan
+    return SimulatorRuns(Y, dict(sorted(errors.items())), n_calls, batch_error)
+
+
+# ------------------------------------------------------------ the runs
+def given_simulations(X, q, X_sim, theta_sim, y_sim):
+    """The precomputed simulation dataset, checked; None when not given."""
+    given = [a is not None for a in (X_sim, theta_sim, y_sim)]
+    if not any(given):
+        return None
+    if not all(given):
+        raise ValueError(
+            "Pass X_sim, theta_sim and y_sim together (a precomputed "
+            "simulation dataset), or none of them."
+        )
+    check_2d(X_sim, "X_sim", "(n_simulations, d)")
+    check_2d(theta_sim, "theta_sim", "(n_simulations, r)")
+    y_array = as_array(y_sim)
+    if y_array is not None and y_array.ndim not in (1, 2):
+        raise ValueError(
+            f"y_sim must be an array of shape (n_simulations, q), got shape "
+            f"{y_array.shape}."
+        )
+    arrays = {}
+    for name, A in (("X_sim", X_sim), ("theta_sim", theta_sim), ("y_sim", y_sim)):
+        A = check_array(
+            A,
+            input_name=name,
+            ensure_2d=False,
+            ensure_all_finite=False,
+            ensure_min_samples=0,
+            dtype=float,
+        )
+        # C order whatever the input's (a DataFrame gives Fortran order).
+        arrays[name] = np.ascontiguousarray(A if A.ndim == 2 else A.reshape(-1, 1))
+    X_sim, theta_sim, y_sim = arrays["X_sim"], arrays["theta_sim"], arrays["y_sim"]
+    if not len(X_sim) == len(theta_sim) == len(y_sim):
+        raise ValueError(
+            "X_sim, theta_sim and y_sim must have the same number of rows, "
+            f"got {len(X_sim)}, {len(theta_sim)} and {len(y_sim)}."
+        )
+    if len(X_sim) == 0:
+        raise ValueError(
+            "X_sim, theta_sim and y_sim are empty (0 simulations): pass the "
+            "simulation dataset, or None and a simulator."
+        )
+    for name in ("X_sim", "theta_sim"):
+        check_finite_rows(
+            arrays[name],
+            name,
+            "the inputs of every run must be known; drop these rows from "
+            "X_sim, theta_sim and y_sim alike (a failed run is a NaN row of "
+            "y_sim only).",
+        )
+    if X_sim.shape[1] != X.shape[1]:
+        raise ValueError(
+            f"X_sim has {X_sim.shape[1]} columns but X has {X.shape[1]}: "
+            "the simulations must use the same design variables."
+        )
+    if y_sim.shape[1] != q:
+        raise ValueError(
+            f"y_sim has {y_sim.shape[1]} responses but y has {q}: the "
+            "simulated and observed responses must be the same, in the "
+            "same order."
+        )
+    failed = nonfinite_rows(y_sim)
+    keep = np.setdiff1d(np.arange(len(y_sim)), failed)
+    failures = tuple(
+        SimulationFailure(
+            "y_sim", int(i), X_sim[i], theta_sim[i], _output_text(y_sim[i])
+        )
+        for i in failed
+    )
+    return SimulationData(X_sim[keep], theta_sim[keep], y_sim[keep], failures=failures)
+
+
+#: Runs per emulator input below which a design is called small: the rule
+#: of thumb of Loeppky, Sacks and Welch (2009), "Choosing the sample size of
+#: a computer experiment: a practical guide", Technometrics 51(4), 366-376.
+RUNS_PER_INPUT = 10
+
+
+def check_design_size(n_total, regression, k, *, failed=None):
+    """Enough runs for an emulator on ``k`` inputs with ``regression``.
+
+    An error below what the regression needs; a warning below
+    :data:`RUNS_PER_INPUT` runs per input. ``failed``, a text saying which
+    runs failed, marks the check after the runs: it then only raises (the
+    warning came before the runs) and the error says why runs are missing.
+    """
+    needed = max(3, n_regression_terms(regression, k) + 1)
+    if n_total < needed and (n_total or failed):
+        after = "" if failed is None else f" after {failed}"
+        raise ValueError(
+            f"{n_total} simulations{after} are too few to fit an emulator: "
+            f"regression={regression!r} on d + r = {k} inputs needs at "
+            f"least {needed}; provide about {RUNS_PER_INPUT} per input "
+            f"({RUNS_PER_INPUT * k}) with n_simulations or X_sim, theta_sim "
+            "and y_sim."
+        )
+    if failed is None and n_total and n_total < RUNS_PER_INPUT * k:
+        warnings.warn(
+            f"{n_total} simulations for d + r = {k} emulator inputs are fewer "
+            f"than the rule of thumb of {RUNS_PER_INPUT} per input "
+            f"({RUNS_PER_INPUT * k}; Loeppky, Sacks and Welch 2009): the "
+            "emulator, and the calibration with it, may be poor. Run more "
+            "simulations (n_simulations, or more rows of X_sim, theta_sim "
+            "and y_sim).",
+            UserWarning,
+            stacklevel=5,
+        )
+
+
+#: Observations whose median lies farther outside the simulated range of
+#: their response than this many times the range's width are suspicious.
+RESPONSE_RANGE_FACTOR = 1.0
+
+
+def check_response_ranges(y, y_sim, names=None):
+    """Warn when a response's observations lie far outside its simulations.
+
+    The usual cause is a unit mismatch (mm against m, kN against N): the
+    discrepancy would otherwise absorb a factor of 1000 without a word.
+    A response is suspicious when the median of its (finite) observations
+    lies outside the range of its simulations by more than
+    :data:`RESPONSE_RANGE_FACTOR` times that range's width. ``names`` (the
+    columns of a DataFrame ``y``) name the response in the message.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> y_sim = np.linspace(0.0, 2.0, 20)[:, None]
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     check_response_ranges(1000 * y_sim[::2], y_sim)
+    >>> "unit mismatch" in str(caught[0].message)
+    True
+    """
+    lo, hi = np.nanmin(y_sim, axis=0), np.nanmax(y_sim, axis=0)
+    width = hi - lo
+    for j in range(y_sim.shape[1]):
+        obs = y[:, j][np.isfinite(y[:, j])]
+        if not obs.size or width[j] <= 0:
+            continue
+        median = float(np.median(obs))
+        excess = max(lo[j] - median, median - hi[j], 0.0) / width[j]
+        if excess <= RESPONSE_RANGE_FACTOR:
+            continue
+        typical_sim = float(np.median(np.abs(y_sim[:, j])))
+        ratio = abs(median) / typical_sim if typical_sim > 0 else np.inf
+        if names is not None:
+            name = f"response {names[j]!r}"
+        else:
+            name = "the response" if y_sim.shape[1] == 1 else f"response {j}"
+        warnings.warn(
+            f"The observations of {name} (column {j} of y) lie far outside "
+            f"the range of its simulations [{lo[j]:.4g}, {hi[j]:.4g}]: their "
+            f"median {median:.4g} is {ratio:.3g} times the simulations' typical "
+            "size. A unit mismatch (mm against m, kN against N) is the usual "
+            "cause; check the units of y against y_sim or the simulator.",
+            UserWarning,
+            stacklevel=4,
+        )
+
+
+def simulation_design(X, prior, n_runs, given, seed):
+    """A Latin hypercube over the range of ``X`` (and of the given runs)
+    times the prior's central 0.999 interval."""
+    lo_x, hi_x = X.min(axis=0), X.max(axis=0)
+    if given is not None:
+        lo_x = np.minimum(lo_x, given.X.min(axis=0))
+        hi_x = np.maximum(hi_x, given.X.max(axis=0))
+    bounds = prior.bounds(0.999)
+    d, r = X.shape[1], prior.dim
+    u = stats.qmc.LatinHypercube(d=d + r, seed=seed).random(n_runs)
+    X_run = lo_x + (hi_x - lo_x) * u[:, :d]
+    theta_run = bounds[:, 0] + (bounds[:, 1] - bounds[:, 0]) * u[:, d:]
+    return X_run, theta_run
+
+
+def collect_simulations(simulator, X, q, prior, given, n_runs, seed, progress=None):
+    """The given runs and ``n_runs`` simulator runs, stacked, failures apart.
+
+    The successful runs form the data; the failed ones (see
+    :func:`run_simulator`) are listed in ``failures`` for
+    :func:`check_failed_runs` to report. ``progress`` (a
+    :class:`~skmba._core.progress.Progress`, None is silent) shows a bar of the
+    runs around the simulator's calls, then their number and time.
+    """
+    progress = as_progress(progress)
+    parts = [] if given is None else [(given.X, given.theta, given.y)]
+    failures = [] if given is None else list(given.failures)
+    n_kept = n_failed = 0
+    first_exception = None
+    if simulator is not None:
+        X_run, theta_run = simulation_design(X, prior, n_runs, given, seed)
+        started = time.perf_counter()
+        with progress.bar(n_runs, "simulator", unit="run") as bar:
+            runs = run_simulator(simulator, X_run, theta_run, q)
+            bar.update(n_runs)
+        progress.info(
+            f"simulator: {n_runs} runs in {runs.n_calls} call(s), "
+            f"{len(runs.errors)} failed, {time.perf_counter() - started:.1f} s"
+        )
+        for i, error in runs.errors.items():
+            if first_exception is None and isinstance(error, BaseException):
+                first_exception = error
+            text = error if isinstance(error, str) else _exception_text(error)
+            failures.append(
+                SimulationFailure("simulator", i, X_run[i], theta_run[i], text)
+            )
+        ok = np.setdiff1d(np.arange(n_runs), list(runs.errors))
+        parts.append((X_run[ok], theta_run[ok], runs.y[ok]))
+        n_kept, n_failed = len(ok), len(runs.errors)
+        if runs.batch_error is not None and not runs.errors:
+            warnings.warn(
+                f"simulator raised {_exception_text(runs.batch_error)} on the "
+                f"batch of {n_runs} runs but not on smaller blocks; it was "
+                f"called {runs.n_calls} times. Make it handle arrays of many "
+                "rows (X of shape (n, d), theta of shape (n, r)), or run it "
+                "yourself and pass X_sim, theta_sim and y_sim to fit.",
+                UserWarning,
+                stacklevel=5,
+            )
+    if not parts:
+        raise ValueError(
+            "No simulations: pass a simulator (and a prior) to the "
+            "constructor, or X_sim, theta_sim and y_sim to fit."
+        )
+    X_sim, theta_sim, y_sim = (np.vstack(p) for p in zip(*parts, strict=True))
+    return SimulationData(
+        X_sim,
+        theta_sim,
+        y_sim,
+        n_kept,
+        tuple(failures),
+        n_failed,
+        first_exception,
+    )
+
+
+def keep_simulator_runs(est, sims, exc):
+    """After a failed fit, keep its simulator runs on the estimator.
+
+    ``X_sim_``, ``theta_sim_`` and ``y_sim_`` get ``sims`` (the fit's
+    :class:`Simulations`, None when it did not get that far) when the
+    simulator ran, and ``exc`` a note saying how to refit without running
+    it again.
+    """
+    if sims is None or not sims.n_simulator_runs:
+        return
+    est.X_sim_, est.theta_sim_, est.y_sim_ = sims.X, sims.theta, sims.y
+    exc.add_note(
+        f"The {sims.n_simulator_runs} simulator runs of this fit are kept in "
+        "X_sim_, theta_sim_ and y_sim_ (with any precomputed simulations): "
+        "after fixing the problem, call set_params(simulator=None) and "
+        "fit(X, y, X_sim=X_sim_, theta_sim=theta_sim_, y_sim=y_sim_) so as "
+        "not to run the simulator again."
+    )
+
+
+def _exception_text(exc):
+    return f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
+
+
+def check_failed_runs(sims, regression, k):
+    """Report the failed runs: an error when too few runs are left, else a warning.
+
+    Every simulator run failing is a RuntimeError (with the first exception
+    chained): the simulator, not the inputs, is then the likely cause.
+    Too few runs left for the emulator is the ValueError of
+    :func:`check_design_size`; otherwise a UserWarning gives the count and
+    the most frequent errors.
+    """
+    failures = sims.failures
+    if not failures:
+        return
+    n_sim_failed = sims.n_simulator_failures
+    n_runs = sims.n_simulator_runs + n_sim_failed
+    if n_runs and n_sim_failed == n_runs:
+        first = next(f for f in failures if f.source == "simulator")
+        raise RuntimeError(
+            f"simulator failed on all {n_runs} runs, e.g. run {first.index} "
+            f"with X={first.X.tolist()}, theta={first.theta.tolist()}: "
+            f"{first.error}. Fix the simulator (call it on a few rows of "
+            "X_sim_ and theta_sim_ to see why), or run the simulations "
+            "yourself and pass the successful ones to fit(X, y, X_sim=..., "
+            "theta_sim=..., y_sim=...)."
+        ) from sims.first_exception
+    parts = []
+    if n_sim_failed:
+        parts.append(f"{n_sim_failed} of {n_runs} simulator runs failed")
+    n_given = len(failures) - n_sim_failed
+    if n_given:
+        parts.append(f"{n_given} row(s) of y_sim hold NaN or inf")
+    common = Counter(f.error for f in failures).most_common(3)
+    errors = "; ".join(f"{count}x {error}" for error, count in common)
+    context = f"{' and '.join(parts)} ({errors})"
+    check_design_size(len(sims.X), regression, k, failed=context)
+    warnings.warn(
+        f"{context}: the {len(sims.X)} successful runs are used and the "
+        "failed ones are listed in simulation_failures_ (inputs and error). "
+        "Where failures cluster, the emulator has fewer runs and is less "
+        "certain; fix the simulator there or narrow the prior / input "
+        "range if they mark a region the model cannot represent.",
+        UserWarning,
+        stacklevel=4,
+    )
+
+
+def _constant_columns(A):
+    spread = np.ptp(A, axis=0)
+    return np.flatnonzero(spread <= 1e-12 * np.abs(A).max(axis=0))
+
+
+def check_simulation_design(X, prior, sims, names=None):
+    """Whether the simulations can support an emulator and the prior.
+
+    ``names`` (the columns of a DataFrame ``X``) name the design variables
+    in the warning on observation inputs outside the simulations.
+    """
+    n_sim = len(sims.X)
+    fixed = _constant_columns(sims.theta)
+    if fixed.size:
+        raise ValueError(
+            f"theta_sim column(s) {fixed.tolist()} are constant (e.g. "
+            f"theta[{fixed[0]}] = {sims.theta[0, fixed[0]]:.6g} in every "
+            "run): the simulations carry no information on how the model "
+            "depends on theta. Vary each parameter over the prior's range "
+            "in the simulations."
+        )
+    fixed = _constant_columns(sims.y)
+    if fixed.size:
+        raise ValueError(
+            f"y_sim column(s) {fixed.tolist()} are constant over the "
+            "simulations: a response that does not change with theta or x "
+            "carries no information on theta. Remove these responses from "
+            "y and y_sim."
+        )
+    _check_prior_coverage(prior, sims.theta, n_sim)
+    # The same margin for the observation inputs: a Latin hypercube over
+    # the range of X (the simulator's design) stops short of its ends.
+    lo, hi = sims.X.min(axis=0), sims.X.max(axis=0)
+    margin = (1.0 / max(n_sim - 1, 1) + 1e-9) * (hi - lo)
+    below, above = X < lo - margin, X > hi + margin
+    outside = np.any(below | above, axis=1)
+    if np.any(outside):
+        parts = []
+        for j in np.flatnonzero(np.any(below | above, axis=0)):
+            label = f"{names[j]!r}" if names is not None else f"column {j}"
+            parts.append(
+                f"{label}: {int(np.sum(below[:, j] | above[:, j]))} at "
+                f"[{X[:, j].min():.4g}, {X[:, j].max():.4g}] against simulations "
+                f"over [{lo[j]:.4g}, {hi[j]:.4g}]"
+            )
+        warnings.warn(
+            f"{int(outside.sum())} observation input(s) lie outside the range "
+            "of the simulations (widened by one mean spacing of the runs), in "
+            f"the design variable(s) {'; '.join(parts)}: the emulator "
+            "extrapolates there. Extend the simulation design to cover X.",
+            UserWarning,
+            stacklevel=4,
+        )
+
+
+def _check_prior_coverage(prior, theta_sim, n_sim):
+    """The prior's mass on the simulated range of theta.
+
+    The range is widened by one mean spacing of the runs at each end: a
+    space-filling design leaves about that much uncovered at the edges,
+    where the emulator extrapolates harmlessly.
+    """
+    lo, hi = theta_sim.min(axis=0), theta_sim.max(axis=0)
+    margin = (hi - lo) / max(n_sim - 1, 1)
+    inside = prior.mass_inside(lo - margin, hi + margin)
+    box = ", ".join(
+        f"theta[{j}] in [{a:.4g}, {b:.4g}]"
+        for j, (a, b) in enumerate(zip(lo, hi, strict=True))
+    )
+    if inside < _PRIOR_MASS_ERROR:
+        raise ValueError(
+            f"The prior puts {inside:.2%} of its mass on the simulated range "
+            f"of theta_sim ({box}): the simulations miss the prior, and the "
+            "emulator would extrapolate over all of it. Simulate over the "
+            "prior's support (e.g. let the calibrator run the simulator), "
+            "or correct the prior (are its units those of theta_sim?)."
+        )
+    if 1.0 - inside > _PRIOR_MASS_WARNING:
+        warnings.warn(
+            f"{1.0 - inside:.1%} of the prior mass lies outside the simulated "
+            f"range of theta_sim ({box}): the emulator extrapolates there, "
+            "and module 2 integrates it over the whole prior. Extend the "
+            "simulations to cover the prior, or narrow the prior.",
+            UserWarning,
+            stacklevel=5,
+        )

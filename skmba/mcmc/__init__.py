@@ -1,0 +1,25 @@
+"""Markov chain Monte Carlo for any log-density: it knows no GP.
+
+Public for the convergence diagnostics, which a user may apply to a
+calibrator's ``theta_chains_``; the files are private:
+
+=====================  ===================================================
+file                   holds
+=====================  ===================================================
+``_chain.py``          one adaptive Metropolis-Hastings chain
+``_run.py``            ``run_chains``: several chains in joblib workers
+``_diagnostics.py``    split R-hat and bulk ESS (Vehtari et al. 2021)
+=====================  ===================================================
+
+Examples
+--------
+>>> import numpy as np
+>>> from skmba.mcmc import ess_bulk, split_rhat
+>>> chains = np.random.default_rng(0).normal(size=(4, 1000))
+>>> bool(split_rhat(chains) < 1.01), bool(ess_bulk(chains) > 3000)
+(True, True)
+"""
+
+from skmba.mcmc._diagnostics import ess_bulk, split_rhat
+
+__all__ = ["ess_bulk", "split_rhat"]

@@ -1,0 +1,91 @@
+"""identifiability_ and NonIdentifiabilityWarning
+(skmba.calibration._module3_identifiability)."""
+
+import warnings
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from skmba.calibration._module3_identifiability import (
+    IDENTIFIABILITY_THRESHOLD,
+    information_ratio,
+    linearised_sds,
+    robust_interval,
+    warn_if_confounded,
+)
+from skmba.exceptions import NonIdentifiabilityWarning
+from skmba.priors._theta import check_prior
+
+
+def _gauss(x, roughness):
+    return np.exp(-roughness * (x[:, None] - x[None, :]) ** 2)
+
+
+def test_information_ratio_known_answers():
+    n = 30
+    x = np.linspace(-1.5, 1.5, n)
+    V0 = 0.01 * np.eye(n)
+    X_d = np.ones((n, 1))
+    # A sensitivity that is a constant shift: the discrepancy mean absorbs
+    # it entirely, whatever the discrepancy variance.
+    assert information_ratio(np.ones((n, 1)), V0, 0 * V0, X_d)[0] < 1e-6
+    # No discrepancy variance and a sensitivity orthogonal to the constant:
+    # only the mean's degree of freedom is lost, which costs nothing here.
+    J = (x - x.mean())[:, None]
+    assert information_ratio(J, V0, 0 * V0, X_d)[0] == pytest.approx(1.0)
+    # A smooth discrepancy absorbs a smooth (linear) sensitivity...
+    smooth = information_ratio(J, V0, 1.0 * _gauss(x, 0.5), X_d)[0]
+    # ...but not a fast oscillation.
+    J_fast = np.sin(12 * x)[:, None]
+    fast = information_ratio(J_fast, V0, 1.0 * _gauss(x, 0.5), X_d)[0]
+    assert smooth < 0.1 < 0.9 < fast <= 1.0
+
+
+def test_information_ratio_equals_dense_posterior_sds():
+    rng = np.random.default_rng(0)
+    n, r = 12, 2
+    J = rng.normal(size=(n, r))
+    A = rng.normal(size=(n, n))
+    V0 = A @ A.T / n + 0.1 * np.eye(n)
+    x = np.linspace(0, 1, n)
+    K = 0.3 * _gauss(x, 4.0)
+    X_d = np.column_stack([np.ones(n), x])
+    var0 = np.diag(np.linalg.inv(J.T @ np.linalg.inv(V0) @ J))
+    Vi = np.linalg.inv(V0 + K)
+    Pi = Vi - Vi @ X_d @ np.linalg.inv(X_d.T @ Vi @ X_d) @ X_d.T @ Vi
+    var1 = np.diag(np.linalg.inv(J.T @ Pi @ J))
+    np.testing.assert_allclose(
+        information_ratio(J, V0, K, X_d), np.sqrt(var0 / var1), rtol=1e-8
+    )
+    np.testing.assert_allclose(
+        linearised_sds(J, V0, K, X_d), np.sqrt([var0, var1]), rtol=1e-8
+    )
+
+
+def test_robust_interval_is_gaussian_and_stays_in_the_prior():
+    prior = check_prior([stats.uniform(0.0, 10.0), stats.norm(0.0, 1.0)])
+    z = stats.norm.ppf(0.975)
+    out = robust_interval(np.array([5.0, 0.2]), np.array([0.5, 0.1]), prior)
+    np.testing.assert_allclose(
+        out, [[5 - z * 0.5, 5 + z * 0.5], [0.2 - z * 0.1, 0.2 + z * 0.1]]
+    )
+    # A parameter that no data identify: the prior's support (for the
+    # Gaussian, its central 1 - 1e-9: +-6.1 sd).
+    out = robust_interval(np.array([9.5, 0.2]), np.array([np.inf, np.inf]), prior)
+    np.testing.assert_allclose(out[0], [0.0, 10.0])
+    np.testing.assert_allclose(out[1], stats.norm.ppf([0.5e-9, 1 - 0.5e-9]))
+    # Near a bound: clipped on that side only.
+    out = robust_interval(np.array([9.5, 0.0]), np.array([1.0, 1.0]), prior, 0.5)
+    np.testing.assert_allclose(out[0], [9.5 - stats.norm.ppf(0.75), 10.0])
+
+
+def test_warning_names_the_parameter_and_the_remedies():
+    with pytest.warns(
+        NonIdentifiabilityWarning, match=r"E \(0\.05\).*PreposteriorDesigner"
+    ):
+        warn_if_confounded(np.array([0.05, 0.9]), ["E", "I"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        warn_if_confounded(np.array([IDENTIFIABILITY_THRESHOLD + 0.01]), ["E"])
+    assert issubclass(NonIdentifiabilityWarning, UserWarning)

@@ -1,0 +1,201 @@
+"""Module 3 over module-2 draws: the mixture equals its components."""
+
+import numpy as np
+import pytest
+from scipy import special
+
+from skmba._core.linalg import FactorizationError
+from skmba.calibration._module2_posterior import (
+    DiscrepancyComponent,
+    HyperposteriorDraws,
+)
+from skmba.calibration._module3_likelihood import GlobalModel
+from skmba.calibration._module3_mixture import ModelMixture
+from skmba.calibration._module4_prediction import conditional_moments
+from skmba.kernels import Gauss
+
+
+def _draws(K=4, seed=0):
+    rng = np.random.default_rng(seed)
+    comps = []
+    for _ in range(K):
+        A = rng.normal(size=(2, 2))
+        comps.append(
+            DiscrepancyComponent(
+                Gauss(roughness=rng.uniform(0.5, 3.0)),
+                0.05 * (A @ A.T + np.eye(2)),
+                rng.uniform(0.005, 0.05, 2),
+                "constant",
+            )
+        )
+    log_w = rng.normal(size=K)
+    log_w = log_w - special.logsumexp(log_w)
+    noise_mean = np.exp(log_w) @ np.array([c.noise for c in comps])
+    return HyperposteriorDraws(None, comps, log_w, None, noise_mean, float(K))
+
+
+@pytest.mark.parametrize("theta", [-0.7, 0.1, 0.9])
+@pytest.mark.parametrize("data", ["problem", "gapped_problem"])
+def test_stacked_equals_each_component(request, theta, data):
+    gm = request.getfixturevalue(data)[1]
+    draws = _draws()
+    mix = ModelMixture(gm, draws)
+    t = np.array([theta])
+    each = np.array(
+        [gm.with_discrepancy(c).log_likelihood(t) for c in draws.components]
+    )
+    np.testing.assert_allclose(
+        mix.component_log_likelihoods(t), draws.log_weights + each, rtol=1e-10
+    )
+    assert mix.log_likelihood(t) == pytest.approx(
+        special.logsumexp(draws.log_weights + each), rel=1e-12
+    )
+    # Several theta in one stack: the values of each theta on its own.
+    thetas = np.array([[-0.7], [0.1], [0.9]])
+    np.testing.assert_allclose(
+        mix.batch_component_log_likelihoods(thetas),
+        [mix.component_log_likelihoods(u) for u in thetas],
+        rtol=1e-12,
+    )
+    np.testing.assert_allclose(
+        mix.log_likelihoods(thetas),
+        [mix.log_likelihood(u) for u in thetas],
+        rtol=1e-12,
+    )
+
+
+@pytest.mark.parametrize("data", ["problem", "gapped_problem"])
+def test_a_draw_that_cannot_be_factored_weighs_nothing(request, data):
+    # A Schur complement that is not positive definite fails the stacked
+    # factorisation; the draws are then factored one by one and that draw
+    # gets -inf, the others their own values.
+    gm = request.getfixturevalue(data)[1]
+    draws = _draws()
+    mix = ModelMixture(gm, draws)
+    t = np.array([0.1])
+    expected = mix.component_log_likelihoods(t)
+    broken = ModelMixture(gm, draws)
+    broken.models[2].S_fixed = -np.eye(len(broken.models[2].S_fixed))
+    values = broken.component_log_likelihoods(t)
+    assert values[2] == -np.inf
+    keep = np.arange(4) != 2
+    np.testing.assert_allclose(values[keep], expected[keep], rtol=1e-12)
+    # No draw can be factored: the error says why.
+    for model in broken.models:
+        model.S_fixed = -np.eye(len(model.S_fixed))
+    broken._S_fixed = None
+    with pytest.raises(FactorizationError, match="not positive definite"):
+        broken.component_log_likelihoods(t)
+
+
+@pytest.mark.parametrize("data", ["problem", "gapped_problem"])
+def test_one_draw_is_the_plug_in_model(request, dense_global, data):
+    problem = request.getfixturevalue(data)
+    gm = problem[1]
+    comp = DiscrepancyComponent(gm.kernel_d, gm.sigma2_d, gm.noise, "constant")
+    one = HyperposteriorDraws(None, [comp], np.zeros(1), None, gm.noise, 1.0)
+    mix = ModelMixture(gm, one)
+    for theta in (-0.5, 0.4):
+        assert mix.log_likelihood(np.array([theta])) == pytest.approx(
+            dense_global(problem, theta), rel=1e-8
+        )
+
+
+def test_spread_evaluation_is_the_batch_one_for_any_n_jobs(problem):
+    from skmba.calibration._module3_mixture import TASK_THETAS
+
+    mix = ModelMixture(problem[1], _draws(K=5, seed=2))
+    thetas = np.linspace(-0.9, 0.9, 2 * TASK_THETAS + 7)[:, None]  # 3 tasks
+    serial = mix.spread_component_log_likelihoods(thetas)
+    assert serial.shape == (len(thetas), 5)
+    np.testing.assert_allclose(
+        serial, mix.batch_component_log_likelihoods(thetas), rtol=1e-12
+    )
+    np.testing.assert_array_equal(
+        mix.spread_component_log_likelihoods(thetas, n_jobs=2), serial
+    )
+
+
+def test_draw_weights_and_effective_draws(problem):
+    gm = problem[1]
+    mix = ModelMixture(gm, _draws(K=8, seed=1))
+    t = np.array([0.2])
+    w = mix.draw_weights(t)
+    assert w.sum() == pytest.approx(1.0) and np.all(w >= 0)
+    assert 1.0 <= mix.effective_draws(t) <= 8.0
+    # A component's conditional moments are those of its own global model.
+    X = np.array([[0.3], [-0.2]])
+    m1 = conditional_moments(mix.models[3], t, X, "reality")
+    m2 = conditional_moments(
+        GlobalModel(gm.emulator, gm.X_e, gm.Y_e, _as_fit(mix.models[3])),
+        t,
+        X,
+        "reality",
+    )
+    np.testing.assert_allclose(m1[0], m2[0], rtol=1e-10)
+    np.testing.assert_allclose(m1[1], m2[1], rtol=1e-10)
+
+
+def _as_fit(model):
+    return DiscrepancyComponent(model.kernel_d, model.sigma2_d, model.noise, "constant")
+
+
+def test_copies_have_their_own_caches(problem):
+    import copy
+
+    mix = ModelMixture(problem[1], _draws())
+    other = copy.copy(mix)
+    assert all(a is not b for a, b in zip(mix.models, other.models, strict=True))
+    t = np.array([0.1])
+    assert other.log_likelihood(t) == mix.log_likelihood(t)
+
+
+def test_restricted_keeps_the_draws_with_weight(problem):
+    gm = problem[1]
+    draws = _draws(K=6, seed=3)
+    # A draw of absurd noise carries no weight anywhere near the data.
+    idle = DiscrepancyComponent(
+        Gauss(roughness=1.0), 0.1 * np.eye(2), 1e3 * np.ones(2), "constant"
+    )
+    draws = HyperposteriorDraws(
+        None,
+        [*draws.components, idle],
+        np.append(draws.log_weights, 0.0),
+        None,
+        draws.noise_mean,
+        draws.noise_ess,
+    )
+    mix = ModelMixture(gm, draws)
+    thetas = [np.array([t]) for t in (-0.5, 0.0, 0.5)]
+    restricted, kept = mix.restricted(thetas)
+    np.testing.assert_array_equal(kept, np.arange(6))
+    assert len(restricted.models) == 6 and len(mix.models) == 7
+    for t in thetas:
+        # Within K tol of the full mixture; the draws kept are the same.
+        assert restricted.log_likelihood(t) == pytest.approx(
+            mix.log_likelihood(t), abs=7 * 1e-10
+        )
+        np.testing.assert_array_equal(
+            restricted.component_log_likelihoods(t),
+            mix.component_log_likelihoods(t)[:6],
+        )
+    # Nothing to leave out: the mixture itself.
+    same, kept = restricted.restricted(thetas, tol=0.0)
+    assert same is restricted and len(kept) == 6
+
+
+def test_restricted_skips_thetas_that_cannot_be_evaluated(problem, monkeypatch):
+    mix = ModelMixture(problem[1], _draws(K=3, seed=4))
+    good, bad = np.array([0.1]), np.array([5.0])
+    weights = mix.draw_weights
+
+    def draw_weights(theta):
+        if theta[0] == bad[0]:
+            raise FactorizationError("not positive definite")
+        return weights(theta)
+
+    monkeypatch.setattr(mix, "draw_weights", draw_weights)
+    assert mix.restricted([good, bad], tol=0.0)[0] is mix
+    # Nothing evaluable: no evidence to leave a draw out.
+    same, kept = mix.restricted([bad], tol=1.0)
+    assert same is mix and len(kept) == 3

@@ -1,0 +1,104 @@
+"""The default prior of the module-2 hyperparameters (skmba.priors._hyperprior)."""
+
+import numpy as np
+import pytest
+from scipy import integrate, stats
+
+from skmba.priors._hyperprior import Hyperprior, lkj_correlation
+
+
+@pytest.mark.parametrize(("q", "eta"), [(2, 1.0), (3, 2.0), (4, 1.0), (5, 2.0)])
+def test_lkj_marginals_are_beta(q, eta):
+    # Each correlation of LKJ(eta) is 2 Beta(eta - 1 + q/2) - 1 (LKJ 2009).
+    rng = np.random.default_rng(0)
+    draws = np.array([lkj_correlation(q, eta, rng) for _ in range(3000)])
+    a = eta - 1 + q / 2
+    for i, j in [(0, 1), (q - 2, q - 1), (0, q - 1)]:
+        x = 0.5 * (draws[:, i, j] + 1.0)
+        assert stats.kstest(x, stats.beta(a, a).cdf).pvalue > 1e-3
+    assert np.all(np.linalg.eigvalsh(draws) > 0)
+
+
+def test_correlation_density_is_lkj_for_two_responses():
+    # q = 2: rho = z / sqrt(1 + z^2) with rho ~ 2 Beta(eta, eta) - 1; the
+    # density of z is that of rho times d rho / d z = (1 + z^2)^-1.5.
+    prior = Hyperprior(correlation_eta=2.0)
+    z = np.linspace(-4, 4, 9)
+    rho = z / np.sqrt(1 + z**2)
+    ref = stats.beta(2, 2).logpdf(0.5 * (rho + 1)) - np.log(2) - 1.5 * np.log1p(z**2)
+    ours = np.array([prior.log_correlation(np.array([v]), 2)[0] for v in z])
+    assert np.ptp(ours - ref) < 1e-12
+
+
+def test_correlation_density_gradient_and_normalisation():
+    prior = Hyperprior(correlation_eta=1.5)
+    z = np.array([0.3, -1.2, 0.7])  # q = 3
+    _, grad = prior.log_correlation(z, 3)
+    h = 1e-6
+    num = [
+        (prior.log_correlation(z + e, 3)[0] - prior.log_correlation(z - e, 3)[0])
+        / (2 * h)
+        for e in np.eye(3) * h
+    ]
+    np.testing.assert_allclose(grad, num, rtol=1e-6)
+    # q = 2 density integrates to a constant that matches LKJ's: 1 over rho.
+    total = integrate.quad(
+        lambda t: np.exp(
+            Hyperprior(correlation_eta=1.0).log_correlation(np.array([t]), 2)[0]
+        ),
+        -np.inf,
+        np.inf,
+    )[0]
+    assert total == pytest.approx(2.0)  # the length of (-1, 1)
+
+
+def test_log_sd_is_half_normal_in_log_coordinates():
+    prior = Hyperprior(sd_scale=0.7)
+    t = np.array([-2.0, 0.1])
+    value, grad = prior.log_sd(t)
+    ref = np.sum(stats.halfnorm(scale=0.7).logpdf(np.exp(t)) + t)
+    # Up to the normalising constant of the half-normal.
+    const = 2 * (np.log(np.sqrt(2 / np.pi) / 0.7))
+    assert value + const == pytest.approx(ref)
+    np.testing.assert_allclose(grad, 1 - np.exp(2 * t) / 0.49)
+
+
+def test_draws_follow_the_prior():
+    prior = Hyperprior()
+    rng = np.random.default_rng(0)
+    draws = [prior.rvs(2, 3, random_state=rng) for _ in range(400)]
+    sd = np.array([d["sd"] for d in draws]).ravel()
+    assert stats.kstest(sd, stats.halfnorm(scale=0.5).cdf).pvalue > 1e-3
+    rough = np.array([d["roughness"] for d in draws]).ravel()
+    assert stats.kstest(rough, stats.loguniform(0.1, 9.0).cdf).pvalue > 1e-3
+    noise = np.array([d["noise"] for d in draws]).ravel()
+    assert stats.kstest(noise, stats.loguniform(1e-6, 1.0).cdf).pvalue > 1e-3
+    assert prior.sd_quantile(0.95)[0] == pytest.approx(0.5 * 1.959964, rel=1e-6)
+    per_response = Hyperprior(sd_scale=[0.5, 0.01])
+    np.testing.assert_allclose(
+        per_response.sd_quantile(0.95, 2), [0.98, 0.0196], rtol=1e-4
+    )
+    with pytest.raises(ValueError, match="has 2 values for 3 responses"):
+        per_response.rvs(1, 3, random_state=0)
+
+
+def test_same_seed_same_draw():
+    a, b = Hyperprior().rvs(1, 2, random_state=3), Hyperprior().rvs(1, 2, 3)
+    assert all(np.array_equal(a[k], b[k]) for k in a)
+
+
+@pytest.mark.parametrize(
+    ("spec", "error", "match"),
+    [
+        ([1], TypeError, "must be None or a dict"),
+        ({"variance": (0.01, 20)}, ValueError, "belong to discrepancy_uncertainty"),
+        ({"sd_scale": -1.0}, ValueError, "sd_scale.*positive"),
+        ({"sd_scale": [[0.5]]}, ValueError, "sd_scale.*1-D array"),
+        ({"correlation_eta": 0.0}, ValueError, "correlation_eta.*positive"),
+        ({"noise": (1.0, 0.1)}, ValueError, r"noise.*0 < low < high"),
+        ({"roughness": (0.0, 9.0)}, ValueError, r"roughness.*0 < low < high"),
+    ],
+)
+def test_bad_spec(spec, error, match):
+    with pytest.raises(error, match=match):
+        Hyperprior.from_spec(spec)
