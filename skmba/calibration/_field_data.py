@@ -15,13 +15,12 @@ Traceback (most recent call last):
 ValueError: X and y have 3 and 2 rows: y must hold one row of observed responses per row of field inputs X.
 """  # noqa: E501
 
-import warnings
-
 import numpy as np
 from sklearn.metrics import r2_score
 from sklearn.utils import check_array
 
 from skmba._core.regression import n_regression_terms
+from skmba._core.warn import warn
 from skmba.calibration._simulations import as_array, check_2d, check_finite_rows
 
 
@@ -100,12 +99,11 @@ def measured_field_data(X, Y, discrepancy_regression, names=None):
     empty = ~measured.any(axis=1)
     if empty.any():
         rows = np.flatnonzero(empty)
-        warnings.warn(
+        warn(
             f"{rows.size} row(s) of y have no measured response (all NaN), rows "
             f"{rows[:10].tolist()}{' ...' if rows.size > 10 else ''}: they are "
             "left out, with their rows of X.",
             UserWarning,
-            stacklevel=4,
         )
         X, Y = X[~empty], Y[~empty]
     return X, Y
@@ -116,14 +114,13 @@ def warn_few_distinct_inputs(X, discrepancy_regression):
     p_d = n_regression_terms(discrepancy_regression, X.shape[1])
     n_distinct = len(np.unique(X, axis=0))
     if n_distinct <= p_d:
-        warnings.warn(
+        warn(
             f"X has {n_distinct} distinct row(s): with discrepancy_regression="
             f"{discrepancy_regression!r} ({p_d} term(s)) the unknown mean "
             "of the discrepancy absorbs any offset there, so the field data "
             "carry no information on theta and its posterior is the prior. "
             "Observe the system at more distinct inputs.",
             UserWarning,
-            stacklevel=4,
         )
 
 

@@ -33,8 +33,6 @@ no discrepancy, with a credible interval that ignores that the model is
 known to be wrong (Brynjarsdottir & O'Hagan, 2014, Inverse Problems 30).
 """
 
-import warnings
-
 import numpy as np
 from scipy import linalg, optimize
 from sklearn.base import clone
@@ -55,6 +53,7 @@ from skmba._core.linalg import (
 from skmba._core.progress import as_progress, start_reporter
 from skmba._core.regression import regression_basis
 from skmba._core.validation import seed_sequence
+from skmba._core.warn import warn
 from skmba.gp._estimator import default_kernel
 
 DISCREPANCY_OPTIMIZERS = ("fmin_l_bfgs_b", "differential_evolution")
@@ -463,11 +462,10 @@ class DiscrepancyFit:
             )
             capped = max_iter is not None and res.nit >= max_iter
             if not res.success and np.isfinite(res.fun) and not capped:
-                warnings.warn(
+                warn(
                     f"The discrepancy likelihood did not fully converge "
                     f"({res.message}).",
                     ConvergenceWarning,
-                    stacklevel=2,
                 )
             if on_start is not None:
                 on_start(k, len(starts), float(res.fun))

@@ -33,7 +33,6 @@ Examples
 (array([2.]), array([1.]))
 """
 
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -41,6 +40,7 @@ from joblib import Parallel, delayed
 
 from skmba._core.linalg import FEWER_FIELD_DATA, FLOAT_BYTES, check_memory, n_workers
 from skmba._core.threads import BlasTask
+from skmba._core.warn import warn
 
 MODULE2_VARIANCES = ("total", "conditional")
 INTEGRATIONS = ("auto", "quadrature", "qmc")
@@ -196,13 +196,12 @@ def repair_psd(V, magnitude=None):
     scale = np.trace(V) / len(V)
     jitter = max(0.0, -smallest) + 1e-10 * scale
     if -smallest > 1e-8 * (scale if magnitude is None else max(magnitude, scale)):
-        warnings.warn(
+        warn(
             "The integrated emulator covariance of module 2 was not positive "
             f"definite (smallest eigenvalue {smallest:.3g}); a jitter of "
             f"{jitter:.3g} was added. Consider another model kernel "
             "(Gauss, Exp) or more integration nodes.",
             UserWarning,
-            stacklevel=3,
         )
     return V + jitter * np.eye(len(V))
 

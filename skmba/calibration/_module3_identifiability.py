@@ -33,7 +33,6 @@ Examples
 array([0.])
 """
 
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -41,6 +40,7 @@ from scipy import linalg, stats
 
 from skmba._core.linalg import observed_block, observed_rows
 from skmba._core.regression import regression_basis
+from skmba._core.warn import warn
 from skmba.exceptions import NonIdentifiabilityWarning
 
 #: ``fit`` warns for a parameter whose ``identifiability_`` is below this:
@@ -213,7 +213,7 @@ def warn_if_confounded(values, names):
     ]
     if not weak:
         return
-    warnings.warn(
+    warn(
         f"The field data cannot tell {', '.join(weak)} from the model "
         "discrepancy (identifiability_ below "
         f"{IDENTIFIABILITY_THRESHOLD:.2f}): a discrepancy of plausible size "
@@ -224,5 +224,4 @@ def warn_if_confounded(values, names):
         "(PreposteriorDesigner ranks them), add prior information on it, or "
         "constrain the discrepancy.",
         NonIdentifiabilityWarning,
-        stacklevel=3,
     )

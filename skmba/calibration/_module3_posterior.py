@@ -18,7 +18,6 @@ Examples
 
 import copy
 import time
-import warnings
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -29,6 +28,7 @@ from skmba._core.linalg import (
 )
 from skmba._core.progress import as_progress
 from skmba._core.validation import seed_sequence
+from skmba._core.warn import warn
 from skmba.mcmc._diagnostics import check_diagnostics
 from skmba.mcmc._run import run_chains
 
@@ -367,7 +367,7 @@ def posterior_by_quadrature(log_posterior, n_samples, random_state=None, say=Non
         if sweep >= 1 and inside.size >= _RESOLVED_NODES:
             break
     else:
-        warnings.warn(
+        warn(
             f"The posterior of theta is narrower than the quadrature resolved "
             f"after {_QUADRATURE_PASSES} passes (its mass lies on {inside.size} "
             f"of {len(t)} nodes around {t[np.argmax(w)]:.8g}): theta_cov_ "
@@ -375,7 +375,6 @@ def posterior_by_quadrature(log_posterior, n_samples, random_state=None, say=Non
             "simulations and the noise estimate (noise_), or use "
             "sampler='mcmc'.",
             UserWarning,
-            stacklevel=6,
         )
     cdf = np.concatenate(
         [[0.0], np.cumsum(0.5 * (density[1:] + density[:-1]) * np.diff(t))]

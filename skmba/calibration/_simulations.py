@@ -17,7 +17,6 @@ array([[3.],
 """
 
 import time
-import warnings
 from collections import Counter
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -28,6 +27,7 @@ from sklearn.utils.validation import check_array
 
 from skmba._core.progress import as_progress
 from skmba._core.regression import n_regression_terms
+from skmba._core.warn import warn
 
 # Share of the prior mass that must lie in the simulated range of theta
 # (less: error), and share that may lie outside it without a warning (the
@@ -345,7 +345,7 @@ def check_design_size(n_total, regression, k, *, failed=None):
             "and y_sim."
         )
     if failed is None and n_total and n_total < RUNS_PER_INPUT * k:
-        warnings.warn(
+        warn(
             f"{n_total} simulations for d + r = {k} emulator inputs are fewer "
             f"than the rule of thumb of {RUNS_PER_INPUT} per input "
             f"({RUNS_PER_INPUT * k}; Loeppky, Sacks and Welch 2009): the "
@@ -353,7 +353,6 @@ def check_design_size(n_total, regression, k, *, failed=None):
             "simulations (n_simulations, or more rows of X_sim, theta_sim "
             "and y_sim).",
             UserWarning,
-            stacklevel=5,
         )
 
 
@@ -398,14 +397,13 @@ def check_response_ranges(y, y_sim, names=None):
             name = f"response {names[j]!r}"
         else:
             name = "the response" if y_sim.shape[1] == 1 else f"response {j}"
-        warnings.warn(
+        warn(
             f"The observations of {name} (column {j} of y) lie far outside "
             f"the range of its simulations [{lo[j]:.4g}, {hi[j]:.4g}]: their "
             f"median {median:.4g} is {ratio:.3g} times the simulations' typical "
             "size. A unit mismatch (mm against m, kN against N) is the usual "
             "cause; check the units of y against y_sim or the simulator.",
             UserWarning,
-            stacklevel=4,
         )
 
 
@@ -459,14 +457,13 @@ def collect_simulations(simulator, X, q, prior, given, n_runs, seed, progress=No
         parts.append((X_run[ok], theta_run[ok], runs.y[ok]))
         n_kept, n_failed = len(ok), len(runs.errors)
         if runs.batch_error is not None and not runs.errors:
-            warnings.warn(
+            warn(
                 f"simulator raised {_exception_text(runs.batch_error)} on the "
                 f"batch of {n_runs} runs but not on smaller blocks; it was "
                 f"called {runs.n_calls} times. Make it handle arrays of many "
                 "rows (X of shape (n, d), theta of shape (n, r)), or run it "
                 "yourself and pass X_sim, theta_sim and y_sim to fit.",
                 UserWarning,
-                stacklevel=5,
             )
     if not parts:
         raise ValueError(
@@ -543,14 +540,13 @@ def check_failed_runs(sims, regression, k):
     errors = "; ".join(f"{count}x {error}" for error, count in common)
     context = f"{' and '.join(parts)} ({errors})"
     check_design_size(len(sims.X), regression, k, failed=context)
-    warnings.warn(
+    warn(
         f"{context}: the {len(sims.X)} successful runs are used and the "
         "failed ones are listed in simulation_failures_ (inputs and error). "
         "Where failures cluster, the emulator has fewer runs and is less "
         "certain; fix the simulator there or narrow the prior / input "
         "range if they mark a region the model cannot represent.",
         UserWarning,
-        stacklevel=4,
     )
 
 
@@ -599,13 +595,12 @@ def check_simulation_design(X, prior, sims, names=None):
                 f"[{X[:, j].min():.4g}, {X[:, j].max():.4g}] against simulations "
                 f"over [{lo[j]:.4g}, {hi[j]:.4g}]"
             )
-        warnings.warn(
+        warn(
             f"{int(outside.sum())} observation input(s) lie outside the range "
             "of the simulations (widened by one mean spacing of the runs), in "
             f"the design variable(s) {'; '.join(parts)}: the emulator "
             "extrapolates there. Extend the simulation design to cover X.",
             UserWarning,
-            stacklevel=4,
         )
 
 
@@ -632,11 +627,10 @@ def _check_prior_coverage(prior, theta_sim, n_sim):
             "or correct the prior (are its units those of theta_sim?)."
         )
     if 1.0 - inside > _PRIOR_MASS_WARNING:
-        warnings.warn(
+        warn(
             f"{1.0 - inside:.1%} of the prior mass lies outside the simulated "
             f"range of theta_sim ({box}): the emulator extrapolates there, "
             "and module 2 integrates it over the whole prior. Extend the "
             "simulations to cover the prior, or narrow the prior.",
             UserWarning,
-            stacklevel=5,
         )

@@ -20,13 +20,12 @@ Traceback (most recent call last):
 ValueError: n_samples=2 is too few for regression='linear' ... 3 samples are needed...
 """
 
-import warnings
-
 import numpy as np
 from sklearn.exceptions import ConvergenceWarning
 
 from skmba._core.dace import DACECorrelation
 from skmba._core.linalg import check_memory
+from skmba._core.warn import warn
 from skmba.gp._search import LOG_NOISE_BOUNDS
 
 # Inputs and responses beyond this magnitude overflow float64 when squared.
@@ -137,13 +136,12 @@ def check_rows(X, Y, H, regression, noise):
             "noise=True (measurements, stochastic simulators), or average "
             "the duplicated runs."
         )
-    warnings.warn(
+    warn(
         f"X has {dup.size} duplicated row(s) (e.g. rows {source[dup[0]]} and "
         f"{dup[0]}) with equal y: they add no information to a noise-free "
         "GP and make the correlation matrix singular up to the nugget "
         "alpha. Remove them to save time.",
         UserWarning,
-        stacklevel=4,
     )
 
 
@@ -171,7 +169,7 @@ def check_covariance_size(n, q, p, regression):
         )
 
 
-def warn_at_bounds(kernel, stacklevel=2, *, noise=None):
+def warn_at_bounds(kernel, *, noise=None):
     """A ``ConvergenceWarning`` per fitted hyperparameter on a bound.
 
     As scikit-learn's ``GaussianProcessRegressor``: a value within
@@ -184,7 +182,6 @@ def warn_at_bounds(kernel, stacklevel=2, *, noise=None):
     kernel : sklearn Kernel or None
         The fitted kernel, whose optimised hyperparameters are checked
         (None: none are).
-    stacklevel : int, default=2
     noise : tuple (responses, values, bounds), default=None
         The fitted noise variances of a noisy fit: the responses' indices
         (in ``y``), their noise variances, shape (q,), and the bounds of
@@ -193,7 +190,7 @@ def warn_at_bounds(kernel, stacklevel=2, *, noise=None):
         a response that looks like noise alone.
     """
     if noise is not None:
-        _warn_noise_at_bounds(*noise, stacklevel=stacklevel + 1)
+        _warn_noise_at_bounds(*noise)
     if kernel is None:
         return
     theta, bounds = kernel.theta, kernel.bounds
@@ -218,17 +215,16 @@ def warn_at_bounds(kernel, stacklevel=2, *, noise=None):
                 )
             else:
                 continue
-            warnings.warn(
+            warn(
                 f"The fitted {hyp.name} of input {dim} ({value:.4g}) is at the "
                 f"{side} bound {bound:.4g} of its search: {meaning}. Widen the "
                 f"kernel's bounds ({hyp.name}_bounds) or rescale the input if "
                 "the likelihood may want a value beyond it.",
                 ConvergenceWarning,
-                stacklevel=stacklevel,
             )
 
 
-def _warn_noise_at_bounds(responses, values, bounds, stacklevel):
+def _warn_noise_at_bounds(responses, values, bounds):
     """The noise part of :func:`warn_at_bounds`."""
     low, high = np.exp(LOG_NOISE_BOUNDS)
     for j, value, (lo, hi) in zip(responses, values, bounds, strict=True):
@@ -248,12 +244,11 @@ def _warn_noise_at_bounds(responses, values, bounds, stacklevel):
             )
         else:
             continue
-        warnings.warn(
+        warn(
             f"The fitted noise variance of response {j} ({value:.4g}) is at "
             f"the {side} bound {bound:.4g} of its search (the bounds are "
             f"{low:.3g} and {high:.3g} times the response's variance): {meaning}.",
             ConvergenceWarning,
-            stacklevel=stacklevel,
         )
 
 

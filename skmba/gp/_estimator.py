@@ -16,7 +16,6 @@ Examples
 (1,)
 """
 
-import warnings
 from contextlib import contextmanager
 from typing import ClassVar
 
@@ -38,6 +37,7 @@ from skmba._core.validation import (
     random_state_instance,
     validate_parameter_table,
 )
+from skmba._core.warn import warn
 from skmba.gp._checks import (
     check_covariance_size,
     check_fit_memory,
@@ -316,9 +316,8 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
         """BLAS threads by the number of samples; after a failure, no
         fitted state.
 
-        A context manager rather than a wrapper, so that the warnings'
-        ``stacklevel`` counts the same frames from :meth:`fit` and
-        :meth:`_fit_reporting`.
+        A context manager rather than a wrapper: :meth:`fit` and
+        :meth:`_fit_reporting` share it.
         """
         # The package's thread policy (skmba._core.threads): one BLAS thread for
         # smaller designs (a second pool's spinning threads slow the noisy
@@ -359,11 +358,10 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
             check_covariance_size(n, q, p, self.regression)
 
         if q == 0:
-            warnings.warn(
+            warn(
                 "All responses are constant: the GP predicts them exactly and "
                 "the kernel is not fitted.",
                 UserWarning,
-                stacklevel=3,
             )
             self.kernel_ = kernel
             self.likelihood_ = None
@@ -394,7 +392,7 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
                     noise_bounds(Ya) * variance[:, None],
                 )
             searched = self.kernel_ if self.optimizer is not None else None
-            warn_at_bounds(searched, stacklevel=4, noise=noise)
+            warn_at_bounds(searched, noise=noise)
         self._set_user_attributes(Y.shape[1], p)
         return self
 
@@ -522,11 +520,10 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
     def _clip_variance(var):
         negative = var < 0
         if np.any(var < -1e-8 * max(float(np.abs(var).max()), 1e-300)):
-            warnings.warn(
+            warn(
                 "Predicted variances smaller than 0 were set to 0: the "
                 "correlation matrix is ill-conditioned. Consider a larger alpha.",
                 UserWarning,
-                stacklevel=3,
             )
         var[negative] = 0.0
         return var

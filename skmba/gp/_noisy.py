@@ -152,6 +152,6 @@ def fit_noisy(problem, kernel):
                 f"point. Last error: {found[-1] if found else 'none recorded'}",
                 what=getattr(found[-1], "what", None) if found else None,
             )
-        warn_not_converged(notes, stacklevel=5)
+        warn_not_converged(notes)
         kernel = kernel.clone_with_theta(theta)
     return kernel, profile(kernel, False)

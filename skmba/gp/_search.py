@@ -11,9 +11,8 @@ escalation" in the User Guide). Above ``WARM_START_ABOVE`` samples the search
 and its restarts run on a random subsample first, and the full-size search
 refines that optimum from one start (:func:`subsample_warm_start`).
 
-Warnings point at the caller of ``MultiResponseGP.fit``: their
-``stacklevel`` counts the fixed call chain ``fit -> _fit -> fit_noise_free``
-(or ``fit_noisy``) ``-> fit_concentrated``.
+Warnings point at the caller of ``MultiResponseGP.fit`` (through
+:func:`skmba._core.warn.warn`).
 
 Examples
 --------
@@ -38,6 +37,7 @@ from sklearn.exceptions import ConvergenceWarning
 from skmba._core.dace import DACECorrelation
 from skmba._core.linalg import FactorizationError, smallest_pivot
 from skmba._core.validation import random_state_instance
+from skmba._core.warn import warn
 from skmba.gp._likelihood import (
     R_REMEDY,
     R_WHAT,
@@ -227,16 +227,15 @@ def run_optimizer(objective, starts, bounds, optimizer, failures, on_start=None)
     return best
 
 
-def warn_not_converged(notes, stacklevel):
+def warn_not_converged(notes):
     """One ``ConvergenceWarning`` per L-BFGS-B message in ``notes``."""
     for note in notes:
-        warnings.warn(
+        warn(
             "L-BFGS-B did not fully converge while fitting "
             f"MultiResponseGP ({note}). Consider more "
             "n_restarts_optimizer, other kernel bounds or a larger "
             "alpha.",
             ConvergenceWarning,
-            stacklevel=stacklevel,
         )
 
 
@@ -416,9 +415,9 @@ def fit_concentrated(problem, kernel, with_nugget):
     """
     target = _Concentrated(problem, kernel, with_nugget)
     x, fit, notes, reason = _escalate(target, *target.starts())
-    warn_not_converged(notes, stacklevel=6)
+    warn_not_converged(notes)
     if problem.nugget != problem.alpha:
-        warnings.warn(
+        warn(
             f"The {R_WHAT} was numerically singular with the nugget "
             f"alpha={problem.alpha:.3g} ({reason}), so the nugget was raised to "
             f"nugget_={problem.nugget:.3g} (escalation by 10x up to "
@@ -427,7 +426,6 @@ def fit_concentrated(problem, kernel, with_nugget):
             f"them exactly. Set alpha={problem.nugget:.3g} to skip the refits, "
             "or remove nearly duplicated inputs or use a rougher kernel.",
             UserWarning,
-            stacklevel=5,
         )
     n_kernel = target.n_kernel
     fitted = kernel.clone_with_theta(x[:n_kernel]) if n_kernel else kernel

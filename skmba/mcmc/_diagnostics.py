@@ -22,10 +22,11 @@ Examples
 """
 
 import math
-import warnings
 
 import numpy as np
 from scipy import fft, stats
+
+from skmba._core.warn import warn
 
 
 def rank_normalize(x):
@@ -308,5 +309,5 @@ def check_diagnostics(result, rhat_threshold=1.01, min_ess=400, *, names=None):
             "the proposal adapt better."
         )
     for message in messages:
-        warnings.warn(message, UserWarning, stacklevel=2)
+        warn(message, UserWarning)
     return messages

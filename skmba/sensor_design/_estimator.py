@@ -487,7 +487,7 @@ class PreposteriorDesigner(BaseEstimator):
         self._set_fitted(
             results, replicates, prior, prior_cov, q, X_design, emulator.gp, names
         )
-        warn_replicate_problems(replicates, stacklevel=4)
+        warn_replicate_problems(replicates)
         self._log(f"done: best subset {self.best_subset_}", started)
         return self
 

@@ -40,6 +40,7 @@ from skmba._core.progress import results_as_ready
 from skmba._core.regression import regression_basis
 from skmba._core.threads import BlasTask
 from skmba._core.validation import int_seed
+from skmba._core.warn import warn
 from skmba.calibration._module2_plug_in import (
     TABLE_6_2_RANGES,
     check_interval,
@@ -316,28 +317,26 @@ def _fit_module2_draws(ctx, rep, responses):
     return hyperposterior(integrated.restrict(idx), second)
 
 
-def warn_replicate_problems(replicates, stacklevel=2):
+def warn_replicate_problems(replicates):
     """Warn about the replicates' module-2 fits that did not fully converge
     and the second-pass covariances that needed a jitter (their counts)."""
     unconverged = sum(rep.n_unconverged for rep in replicates)
     if unconverged:
-        warnings.warn(
+        warn(
             f"{unconverged} module-2 likelihood maximisations of the "
             f"{len(replicates)} replicates did not fully converge; their "
             "estimates are used as they are. More restarts (calibrator "
             "n_restarts_optimizer) make them more robust.",
             ConvergenceWarning,
-            stacklevel=stacklevel,
         )
     repaired = sum(rep.n_repaired for rep in replicates)
     if repaired:
-        warnings.warn(
+        warn(
             f"{repaired} posterior-integrated emulator covariances of the "
             "second module-2 pass (discrepancy_uncertainty='propagate') "
             "were not positive definite and got a jitter, usually a "
             "round-off effect of a narrow posterior of theta.",
             UserWarning,
-            stacklevel=stacklevel,
         )
 
 
@@ -647,14 +646,13 @@ def _announce(seconds, n_evaluations, n_tasks, n_jobs, progress):
         f"{workers} worker(s))"
     )
     if expected > LONG_SEARCH_SECONDS:
-        warnings.warn(
+        warn(
             f"The exhaustive search is expected to take about "
             f"{_duration(expected)} ({n_tasks} tasks of about {seconds:.1f} s "
             f"on {workers} worker(s)). It goes on; to shorten it, interrupt "
             "and lower n_mc, set max_responses, use search='greedy' or "
             "'genetic', or raise n_jobs.",
             UserWarning,
-            stacklevel=7,  # subset_moments, score, _search, _fit, fit, caller
         )
 
 
