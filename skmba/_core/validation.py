@@ -3,16 +3,17 @@
 One home for the checks that several modules need, so that the same bad
 value gets the same message everywhere.
 
-Constructor parameters are checked from a table, in the form of
-scikit-learn's ``_parameter_constraints``: an estimator declares the class
-attribute ``_parameter_constraints``, a dict mapping every parameter of
+Constructor parameters are checked from a table: an estimator declares the
+class attribute ``_parameter_table`` (a name of its own: scikit-learn's
+``_parameter_constraints`` is read by scikit-learn's own validation, which
+expects its own schema), a dict mapping every parameter of
 ``get_params(deep=False)`` to a list of constraints (or to
 ``"no_validation"`` when it is checked later, with the data), and calls
 :func:`validate_parameter_table` at the start of ``fit``. A value is valid
 when one constraint of its list accepts it. The constraints are
 :class:`Options`, :class:`Count`, :class:`Real`, :class:`Boolean`,
 :class:`InstanceOf`, :class:`Callable` and :class:`NJobs`; see
-``MultiResponseGP._parameter_constraints`` for a table.
+``MultiResponseGP._parameter_table`` for a table.
 
 scikit-learn's ``sklearn.utils._param_validation`` is private and words its
 messages its own way ("The 'alpha' parameter of ... must be a float in the
@@ -30,7 +31,8 @@ Examples
 >>> Count(minimum=2, allow_none=True).message("n_design", 1)
 'n_design must be an integer >= 2 or None, got 1.'
 >>> try:
-...     validate_parameter_table(MultiResponseGP(noise="yes"))
+...     gp = MultiResponseGP(noise="yes")
+...     validate_parameter_table(gp._parameter_table, gp.get_params(), "GP")
 ... except ValueError as exc:
 ...     print(exc)
 noise must be True or False, got 'yes'.
@@ -202,23 +204,22 @@ class NJobs(_Constraint):
         return value is None or (_is_int(value) and value != 0)
 
 
-def validate_parameter_table(estimator):
-    """Check ``estimator``'s parameters against its ``_parameter_constraints``.
+def validate_parameter_table(table, params, owner):
+    """Check the parameters ``params`` (``get_params(deep=False)``) of the
+    class named ``owner`` against its table ``table`` (``_parameter_table``).
 
-    Every parameter of ``get_params(deep=False)`` needs an entry (a list of
-    constraints, or ``"no_validation"``), else a ``RuntimeError`` (a bug of
-    the estimator). In the order of the table, the first parameter that no
-    constraint of its list accepts raises an :class:`InvalidParameterError`
-    with that constraint's message, or with several constraints "name=value
-    is not supported; use a, b or c."
+    Every parameter needs an entry (a list of constraints, or
+    ``"no_validation"``), else a ``RuntimeError`` (a bug of the estimator).
+    In the order of the table, the first parameter that no constraint of its
+    list accepts raises an :class:`InvalidParameterError` with that
+    constraint's message, or with several constraints "name=value is not
+    supported; use a, b or c."
     """
-    table = type(estimator)._parameter_constraints
-    params = estimator.get_params(deep=False)
     missing = sorted(set(params) - set(table))
     if missing:
         raise RuntimeError(
-            f"{type(estimator).__name__}._parameter_constraints has no entry for "
-            f"{missing}; add one (or 'no_validation')."
+            f"{owner}._parameter_table has no entry for {missing}; add one "
+            "(or 'no_validation')."
         )
     for name, constraints in table.items():
         value = params[name]

@@ -323,7 +323,7 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
     True
     """
 
-    _parameter_constraints: ClassVar[dict] = {
+    _parameter_table: ClassVar[dict] = {
         "simulator": [
             Callable(what="a callable simulator(X, theta) -> Y", allow_none=True)
         ],
@@ -465,7 +465,9 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
 
     def _fit(self, X, y, X_sim, theta_sim, y_sim, partial):
         """Modules 1-3; returns what :meth:`_set_fitted` stores."""
-        validate_parameter_table(self)
+        validate_parameter_table(
+            self._parameter_table, self.get_params(deep=False), type(self).__name__
+        )
         check_field_data(X, y, self.discrepancy_regression)
         responses = column_names(y)
         X = validate_data(self, X)

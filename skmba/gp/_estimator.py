@@ -230,7 +230,7 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
     True
     """
 
-    _parameter_constraints: ClassVar[dict] = {
+    _parameter_table: ClassVar[dict] = {
         "kernel": [
             InstanceOf(
                 Kernel,
@@ -335,7 +335,9 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
                 raise
 
     def _fit(self, X, y, on_start=None):
-        validate_parameter_table(self)
+        validate_parameter_table(
+            self._parameter_table, self.get_params(deep=False), type(self).__name__
+        )
         X, Y = self._validate_training_data(X, y)
         n, d = X.shape
         check_magnitudes(X, Y)

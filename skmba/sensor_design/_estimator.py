@@ -326,7 +326,7 @@ class PreposteriorDesigner(BaseEstimator):
     (3, 1, 1)
     """
 
-    _parameter_constraints: ClassVar[dict] = {
+    _parameter_table: ClassVar[dict] = {
         "prior": "no_validation",  # check_prior, in fit
         "calibrator": [
             InstanceOf(
@@ -425,7 +425,9 @@ class PreposteriorDesigner(BaseEstimator):
 
     def _fit(self, X, y):
         started = time.perf_counter()
-        validate_parameter_table(self)
+        validate_parameter_table(
+            self._parameter_table, self.get_params(deep=False), type(self).__name__
+        )
         names = column_names(y)
         # A table's parameter columns are found by the prior's names.
         X = parameters_last(X, prior_names(given_prior(self.prior, self.calibrator)))
@@ -497,7 +499,9 @@ class PreposteriorDesigner(BaseEstimator):
             ModularBayesCalibrator() if self.calibrator is None else self.calibrator
         )
         cal.set_params(prior=None, simulator=None, n_jobs=self.n_jobs)
-        validate_parameter_table(cal)
+        validate_parameter_table(
+            cal._parameter_table, cal.get_params(deep=False), type(cal).__name__
+        )
         return cal
 
     def _context(self, cal, prior, priors, scaler, emulator, X_design, seeds):

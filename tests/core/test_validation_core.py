@@ -134,7 +134,7 @@ def test_constraint_accepts_good_values_and_words_the_bad_one(case):
 
 
 class Estimator(BaseEstimator):
-    _parameter_constraints = {  # noqa: RUF012
+    _parameter_table = {  # noqa: RUF012
         "regression": [Options(("constant", "linear"))],
         "optimizer": [Options(("fmin_l_bfgs_b",), allow_none=True), Callable()],
         "n_jobs": [NJobs()],
@@ -168,7 +168,7 @@ class Estimator(BaseEstimator):
     ],
 )
 def test_valid_parameters_pass(params):
-    assert validate_parameter_table(Estimator(**params)) is None
+    assert _validate(Estimator(**params)) is None
 
 
 @pytest.mark.parametrize(
@@ -186,27 +186,35 @@ def test_valid_parameters_pass(params):
 )
 def test_invalid_parameter_is_named_with_its_constraint(params, message):
     with pytest.raises(InvalidParameterError, match=re.escape(message)):
-        validate_parameter_table(Estimator(**params))
+        _validate(Estimator(**params))
+
+
+def _validate(estimator):
+    return validate_parameter_table(
+        type(estimator)._parameter_table,
+        estimator.get_params(deep=False),
+        type(estimator).__name__,
+    )
 
 
 def test_error_is_both_a_value_and_a_type_error():
     # the three estimators raised either for the same kind of check
     for expected in (ValueError, TypeError):
         with pytest.raises(expected):
-            validate_parameter_table(Estimator(alpha="big"))
+            _validate(Estimator(alpha="big"))
 
 
 def test_parameters_are_checked_in_table_order():
     with pytest.raises(InvalidParameterError, match=r"^regression="):
-        validate_parameter_table(Estimator(regression="cubic", alpha=-1.0))
+        _validate(Estimator(regression="cubic", alpha=-1.0))
 
 
 def test_parameter_missing_from_the_table_is_a_bug():
     class Incomplete(Estimator):
-        _parameter_constraints = {"regression": []}  # noqa: RUF012
+        _parameter_table = {"regression": []}  # noqa: RUF012
 
     with pytest.raises(RuntimeError, match=r"no entry for \['alpha', 'n_jobs'"):
-        validate_parameter_table(Incomplete())
+        _validate(Incomplete())
 
 
 def test_check_count():
