@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy import linalg
 
-from skmba import _linalg
+import skmba._core.linalg as _linalg
 from skmba._core.linalg import (
     FactorizationError,
     check_memory,
