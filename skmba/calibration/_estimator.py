@@ -21,7 +21,6 @@ from typing import ClassVar
 
 import numpy as np
 from sklearn.base import BaseEstimator, MultiOutputMixin, RegressorMixin
-from sklearn.gaussian_process.kernels import Kernel
 from sklearn.utils.validation import (
     check_consistent_length,
     check_is_fitted,
@@ -30,64 +29,43 @@ from sklearn.utils.validation import (
 
 from skmba._core.columns import column_names, match_columns
 from skmba._core.progress import Progress
-from skmba._core.regression import REGRESSIONS
 from skmba._core.threads import blas_threads
-from skmba._core.validation import (
-    Boolean,
-    Callable,
-    Count,
-    InstanceOf,
-    NJobs,
-    Options,
-    Real,
-    int_seed,
-    seed_sequence,
-    validate_parameter_table,
-)
+from skmba._core.validation import int_seed, seed_sequence, validate_parameter_table
 from skmba.calibration._field_data import (
     check_field_data,
+    check_response_ranges,
+    check_simulation_design,
     checked_field_y,
     field_order,
     measured_field_data,
     measured_r2,
-    warn_few_distinct_inputs,
-)
-from skmba.calibration._module2_plug_in import DISCREPANCY_OPTIMIZERS
-from skmba.calibration._module2_prior_integral import (
-    INTEGRATIONS,
-    MODULE2_VARIANCES,
-    one_parameter_rule,
-)
-from skmba.calibration._module3_identifiability import warn_if_confounded
-from skmba.calibration._module3_posterior import (
-    SAMPLERS,
-)
-from skmba.calibration._module4_prediction import PredictionRule, predict_component
-from skmba.calibration._pipeline import (
-    DISCREPANCY_UNCERTAINTIES,
-    OPTIONAL_FITTED,
-    checked_prior,
-    fitted_attributes,
-    module2_prior,
     named_simulations,
     prior_names,
+    warn_few_distinct_inputs,
+)
+from skmba.calibration._module2_prior_integral import one_parameter_rule
+from skmba.calibration._module3_identifiability import warn_if_confounded
+from skmba.calibration._module4_prediction import PredictionRule, predict_component
+from skmba.calibration._pipeline import (
+    OPTIONAL_FITTED,
+    fitted_attributes,
+    module2_prior,
     run_modules,
     simulations_for,
 )
+from skmba.calibration._settings import PARAMETER_TABLE, CalibrationSettings
 from skmba.calibration._simulations import (
     check_failed_runs,
-    check_response_ranges,
-    check_simulation_design,
+    checked_prior,
     given_simulations,
-    keep_simulator_runs,
+    kept_simulator_runs,
 )
 from skmba.calibration._summary import (
     calibration_table,
     calibration_text,
     inference_data,
+    parameter_names,
 )
-
-_KERNEL = InstanceOf(Kernel, what="an sklearn Kernel", allow_none=True)
 
 
 class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
@@ -323,33 +301,7 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
     True
     """
 
-    _parameter_table: ClassVar[dict] = {
-        "simulator": [
-            Callable(what="a callable simulator(X, theta) -> Y", allow_none=True)
-        ],
-        "prior": "no_validation",  # check_prior, in fit
-        "n_simulations": [Count(minimum=2, allow_none=True)],
-        "model_kernel": [_KERNEL],
-        "discrepancy_kernel": [_KERNEL],
-        "regression": [Options(REGRESSIONS, hint="thesis Table 3.1")],
-        "discrepancy_regression": [Options(REGRESSIONS, hint="thesis Table 3.1")],
-        "noise": [Boolean()],
-        "integration": [Options(INTEGRATIONS)],
-        "sampler": [Options(SAMPLERS)],
-        "n_chains": [Count(minimum=1)],
-        "n_samples": [Count(minimum=1)],
-        "burn_in": [Count(minimum=0)],
-        "n_jobs": [NJobs()],
-        "random_state": "no_validation",  # check_random_state, in fit
-        "n_integration_nodes": [Count(minimum=2, allow_none=True)],
-        "module2_variance": [Options(MODULE2_VARIANCES)],
-        "n_restarts_optimizer": [Count(minimum=0)],
-        "discrepancy_optimizer": [Options(DISCREPANCY_OPTIMIZERS)],
-        "discrepancy_uncertainty": [Options(DISCREPANCY_UNCERTAINTIES)],
-        "discrepancy_prior": "no_validation",  # module2_prior, in fit
-        "emulator_alpha": [Real(minimum=0, hint="the emulator's nugget, e.g. 1e-8")],
-        "verbose": [Count(minimum=0)],
-    }
+    _parameter_table: ClassVar[dict] = PARAMETER_TABLE
 
     def __init__(
         self,
@@ -457,9 +409,11 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
             with blas_threads(field_order(y)):
                 fitted = self._fit(X, y, X_sim, theta_sim, y_sim, partial)
         except Exception as exc:
-            keep_simulator_runs(self, partial.get("simulations"), exc)
+            kept = kept_simulator_runs(partial.get("simulations"), exc)
+            for name, value in kept.items():
+                setattr(self, name, value)
             raise
-        self._set_fitted(fitted)
+        self._set_fitted(**fitted)
         warn_if_confounded(self.identifiability_, self.parameter_names_)
         return self
 
@@ -468,6 +422,44 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         validate_parameter_table(
             self._parameter_table, self.get_params(deep=False), type(self).__name__
         )
+        settings = CalibrationSettings.from_params(self.get_params(deep=False))
+        X, Y, y_ndim, responses, tables = self._field_data(
+            X, y, X_sim, theta_sim, y_sim
+        )
+        # Before any simulation runs: a bad range must not waste them.
+        module2_spec = module2_prior(settings, X, Y.shape[1])
+        # One child of the seed per random step: the simulation design, then
+        # modules 1, 2a, 2b and 3.
+        seeds = [int_seed(c) for c in seed_sequence(self.random_state).spawn(7)]
+        given = given_simulations(X, Y.shape[1], *tables)
+        prior = checked_prior(self.prior, given, names=column_names(tables[1]))
+        for name, other in (("integration", "qmc"), ("sampler", "mcmc")):
+            one_parameter_rule(name, getattr(self, name), prior.dim, several=other)
+        progress = Progress(self.verbose, "ModularBayesCalibrator")
+        sims = simulations_for(
+            settings, X, Y.shape[1], prior, given, seeds[0], progress
+        )
+        partial["simulations"] = sims
+        check_failed_runs(sims, self.regression, X.shape[1] + prior.dim)
+        if sims.theta.shape[1] != prior.dim:
+            raise ValueError(
+                f"theta_sim has {sims.theta.shape[1]} columns but the prior has "
+                f"{prior.dim} parameters."
+            )
+        check_simulation_design(
+            X, prior, sims, getattr(self, "feature_names_in_", None)
+        )
+        check_response_ranges(Y, sims.y, responses)
+        result = run_modules(
+            settings, X, Y, sims, prior, module2_spec, seeds[1:], progress
+        )
+        return dict(
+            X=X, Y=Y, y_ndim=y_ndim, responses=responses, sims=sims, result=result
+        )
+
+    def _field_data(self, X, y, X_sim, theta_sim, y_sim):
+        """The field data checked (the measured rows, C order) and the
+        simulation tables matched to them by name."""
         check_field_data(X, y, self.discrepancy_regression)
         responses = column_names(y)
         X = validate_data(self, X)
@@ -476,7 +468,7 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         check_consistent_length(X, y)
         # Tables of simulations are matched to the field data and the prior
         # by their column names (arrays by position).
-        X_sim, theta_sim, y_sim = named_simulations(
+        tables = named_simulations(
             X_sim,
             theta_sim,
             y_sim,
@@ -489,47 +481,27 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         X = np.ascontiguousarray(X, dtype=float)
         Y = np.ascontiguousarray(y, dtype=float).reshape(len(X), -1)
         X, Y = measured_field_data(X, Y, self.discrepancy_regression, responses)
-        y = Y[:, 0] if y.ndim == 1 else Y
         warn_few_distinct_inputs(X, self.discrepancy_regression)
-        q = Y.shape[1]
-        # Before any simulation runs: a bad range must not waste them.
-        ranges = module2_prior(self, X, q)
-        # One child of the seed per random step: the simulation design, then
-        # modules 1, 2a, 2b and 3.
-        seeds = [int_seed(c) for c in seed_sequence(self.random_state).spawn(7)]
-        given = given_simulations(X, q, X_sim, theta_sim, y_sim)
-        prior = checked_prior(self.prior, given, names=column_names(theta_sim))
-        for name, other in (("integration", "qmc"), ("sampler", "mcmc")):
-            one_parameter_rule(name, getattr(self, name), prior.dim, several=other)
-        progress = Progress(self.verbose, "ModularBayesCalibrator")
-        sims = simulations_for(self, X, q, prior, given, seeds[0], progress)
-        partial["simulations"] = sims
-        check_failed_runs(sims, self.regression, X.shape[1] + prior.dim)
-        if sims.theta.shape[1] != prior.dim:
-            raise ValueError(
-                f"theta_sim has {sims.theta.shape[1]} columns but the prior has "
-                f"{prior.dim} parameters."
-            )
-        check_simulation_design(
-            X, prior, sims, getattr(self, "feature_names_in_", None)
-        )
-        check_response_ranges(Y, sims.y, responses)
-        return dict(
-            X=X,
-            y=Y[:, 0] if np.ndim(y) == 1 else Y,
-            Y_ndim=np.ndim(y),
-            responses=responses,
-            prior=prior,
-            sims=sims,
-            **run_modules(self, X, Y, sims, prior, ranges, seeds[1:], progress),
-        )
+        return X, Y, np.ndim(y), responses, tables
 
-    def _set_fitted(self, fitted):
-        """Every fitted attribute, in one place (see :func:`fitted_attributes`)."""
+    def _set_fitted(self, X, Y, y_ndim, responses, sims, result):
+        """Every fitted attribute, in one place."""
         for name in OPTIONAL_FITTED:
             self.__dict__.pop(name, None)
-        for name, value in fitted_attributes(**fitted).items():
+        prior = result.inputs.prior
+        self.prior_ = prior
+        self.parameter_names_ = parameter_names(prior)
+        self.response_names_ = responses
+        self.X_obs_, self.y_obs_ = X, Y[:, 0] if y_ndim == 1 else Y
+        self.X_sim_, self.theta_sim_, self.y_sim_ = sims.X, sims.theta, sims.y
+        self.simulation_failures_ = list(sims.failures)
+        for name, value in fitted_attributes(result, prior).items():
             setattr(self, name, value)
+        # What the predictions and log_posterior need.
+        self._y_ndim = y_ndim
+        self._scaler = result.inputs.scaler
+        self._log_posterior = result.module3.log_post
+        self._prediction_rule = result.module3.rule
 
     # -------------------------------------------------- module 3 and 4
     def log_posterior(self, theta):

@@ -1,9 +1,15 @@
-"""Checks of the field observations ``X`` (design variables) and ``y``.
+"""Checks of the field data ``X`` (design variables) and ``y``, alone and
+against the simulations and the prior.
 
-Shapes, sizes and finiteness before scikit-learn's own checks, so that the
-message names the argument and the fix. NaN in ``y`` marks a reading that
-was not taken (:func:`measured_field_data`); NaN in ``X`` and inf anywhere
-are errors.
+- alone: shapes, sizes and finiteness before scikit-learn's own checks, so
+  that the message names the argument and the fix (:func:`check_field_data`);
+  NaN in ``y`` marks a reading that was not taken
+  (:func:`measured_field_data`); NaN in ``X`` and inf anywhere are errors;
+- where tables meet: simulation tables matched to the field data and the
+  prior by name (:func:`named_simulations`);
+- against the simulations: responses in other units
+  (:func:`check_response_ranges`), field inputs outside the simulated
+  region and a prior the simulations miss (:func:`check_simulation_design`).
 
 Examples
 --------
@@ -15,10 +21,13 @@ Traceback (most recent call last):
 ValueError: X and y have 3 and 2 rows: y must hold one row of observed responses per row of field inputs X.
 """  # noqa: E501
 
+from collections.abc import Mapping
+
 import numpy as np
 from sklearn.metrics import r2_score
 from sklearn.utils import check_array
 
+from skmba._core.columns import match_columns
 from skmba._core.regression import n_regression_terms
 from skmba._core.warn import warn
 from skmba.calibration._simulations import as_array, check_2d, check_finite_rows
@@ -185,3 +194,169 @@ def field_order(y):
         return int(np.asarray(y).size)  # no cast: complex y warns if cast
     except (TypeError, ValueError):
         return 0
+
+
+# Share of the prior mass that must lie in the simulated range of theta
+# (less: error), and share that may lie outside it without a warning (the
+# simulator's own design leaves out 1e-3 per unbounded parameter).
+_PRIOR_MASS_ERROR = 0.01
+
+
+_PRIOR_MASS_WARNING = 0.02
+
+
+#: Observations whose median lies farther outside the simulated range of
+#: their response than this many times the range's width are suspicious.
+RESPONSE_RANGE_FACTOR = 1.0
+
+
+def check_response_ranges(y, y_sim, names=None):
+    """Warn when a response's observations lie far outside its simulations.
+
+    The usual cause is a unit mismatch (mm against m, kN against N): the
+    discrepancy would otherwise absorb a factor of 1000 without a word.
+    A response is suspicious when the median of its (finite) observations
+    lies outside the range of its simulations by more than
+    :data:`RESPONSE_RANGE_FACTOR` times that range's width. ``names`` (the
+    columns of a DataFrame ``y``) name the response in the message.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> y_sim = np.linspace(0.0, 2.0, 20)[:, None]
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     check_response_ranges(1000 * y_sim[::2], y_sim)
+    >>> "unit mismatch" in str(caught[0].message)
+    True
+    """
+    lo, hi = np.nanmin(y_sim, axis=0), np.nanmax(y_sim, axis=0)
+    width = hi - lo
+    for j in range(y_sim.shape[1]):
+        obs = y[:, j][np.isfinite(y[:, j])]
+        if not obs.size or width[j] <= 0:
+            continue
+        median = float(np.median(obs))
+        excess = max(lo[j] - median, median - hi[j], 0.0) / width[j]
+        if excess <= RESPONSE_RANGE_FACTOR:
+            continue
+        typical_sim = float(np.median(np.abs(y_sim[:, j])))
+        ratio = abs(median) / typical_sim if typical_sim > 0 else np.inf
+        if names is not None:
+            name = f"response {names[j]!r}"
+        else:
+            name = "the response" if y_sim.shape[1] == 1 else f"response {j}"
+        warn(
+            f"The observations of {name} (column {j} of y) lie far outside "
+            f"the range of its simulations [{lo[j]:.4g}, {hi[j]:.4g}]: their "
+            f"median {median:.4g} is {ratio:.3g} times the simulations' typical "
+            "size. A unit mismatch (mm against m, kN against N) is the usual "
+            "cause; check the units of y against y_sim or the simulator.",
+            UserWarning,
+        )
+
+
+def _constant_columns(A):
+    spread = np.ptp(A, axis=0)
+    return np.flatnonzero(spread <= 1e-12 * np.abs(A).max(axis=0))
+
+
+def check_simulation_design(X, prior, sims, names=None):
+    """Whether the simulations can support an emulator and the prior.
+
+    ``names`` (the columns of a DataFrame ``X``) name the design variables
+    in the warning on observation inputs outside the simulations.
+    """
+    n_sim = len(sims.X)
+    fixed = _constant_columns(sims.theta)
+    if fixed.size:
+        raise ValueError(
+            f"theta_sim column(s) {fixed.tolist()} are constant (e.g. "
+            f"theta[{fixed[0]}] = {sims.theta[0, fixed[0]]:.6g} in every "
+            "run): the simulations carry no information on how the model "
+            "depends on theta. Vary each parameter over the prior's range "
+            "in the simulations."
+        )
+    fixed = _constant_columns(sims.y)
+    if fixed.size:
+        raise ValueError(
+            f"y_sim column(s) {fixed.tolist()} are constant over the "
+            "simulations: a response that does not change with theta or x "
+            "carries no information on theta. Remove these responses from "
+            "y and y_sim."
+        )
+    _check_prior_coverage(prior, sims.theta, n_sim)
+    # The same margin for the observation inputs: a Latin hypercube over
+    # the range of X (the simulator's design) stops short of its ends.
+    lo, hi = sims.X.min(axis=0), sims.X.max(axis=0)
+    margin = (1.0 / max(n_sim - 1, 1) + 1e-9) * (hi - lo)
+    below, above = X < lo - margin, X > hi + margin
+    outside = np.any(below | above, axis=1)
+    if np.any(outside):
+        parts = []
+        for j in np.flatnonzero(np.any(below | above, axis=0)):
+            label = f"{names[j]!r}" if names is not None else f"column {j}"
+            parts.append(
+                f"{label}: {int(np.sum(below[:, j] | above[:, j]))} at "
+                f"[{X[:, j].min():.4g}, {X[:, j].max():.4g}] against simulations "
+                f"over [{lo[j]:.4g}, {hi[j]:.4g}]"
+            )
+        warn(
+            f"{int(outside.sum())} observation input(s) lie outside the range "
+            "of the simulations (widened by one mean spacing of the runs), in "
+            f"the design variable(s) {'; '.join(parts)}: the emulator "
+            "extrapolates there. Extend the simulation design to cover X.",
+            UserWarning,
+        )
+
+
+def _check_prior_coverage(prior, theta_sim, n_sim):
+    """The prior's mass on the simulated range of theta.
+
+    The range is widened by one mean spacing of the runs at each end: a
+    space-filling design leaves about that much uncovered at the edges,
+    where the emulator extrapolates harmlessly.
+    """
+    lo, hi = theta_sim.min(axis=0), theta_sim.max(axis=0)
+    margin = (hi - lo) / max(n_sim - 1, 1)
+    inside = prior.mass_inside(lo - margin, hi + margin)
+    box = ", ".join(
+        f"theta[{j}] in [{a:.4g}, {b:.4g}]"
+        for j, (a, b) in enumerate(zip(lo, hi, strict=True))
+    )
+    if inside < _PRIOR_MASS_ERROR:
+        raise ValueError(
+            f"The prior puts {inside:.2%} of its mass on the simulated range "
+            f"of theta_sim ({box}): the simulations miss the prior, and the "
+            "emulator would extrapolate over all of it. Simulate over the "
+            "prior's support (e.g. let the calibrator run the simulator), "
+            "or correct the prior (are its units those of theta_sim?)."
+        )
+    if 1.0 - inside > _PRIOR_MASS_WARNING:
+        warn(
+            f"{1.0 - inside:.1%} of the prior mass lies outside the simulated "
+            f"range of theta_sim ({box}): the emulator extrapolates there, "
+            "and module 2 integrates it over the whole prior. Extend the "
+            "simulations to cover the prior, or narrow the prior.",
+            UserWarning,
+        )
+
+
+def prior_names(prior):
+    """The parameter names of a dict prior (its keys), else None."""
+    return [str(name) for name in prior] if isinstance(prior, Mapping) else None
+
+
+def named_simulations(X_sim, theta_sim, y_sim, *, features, parameters, responses):
+    """The simulation tables with their columns in the field data's order.
+
+    ``features``, ``parameters`` and ``responses`` are the names of the
+    columns of ``X``, of the prior and of ``y`` (None: unnamed); a
+    DataFrame is reordered to them and arrays are left as they are (see
+    :func:`~skmba._core.columns.match_columns`).
+    """
+    return (
+        match_columns(X_sim, features, "X_sim", "the columns of X"),
+        match_columns(theta_sim, parameters, "theta_sim", "the keys of prior"),
+        match_columns(y_sim, responses, "y_sim", "the columns of y"),
+    )

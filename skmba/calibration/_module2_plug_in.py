@@ -22,8 +22,8 @@ the Cholesky factor of the correlation ``C`` with rows ``w_i / |w_i|``,
 ``w_i = (z_i1, ..., z_i,i-1, 1)`` and free ``z`` (every correlation matrix is
 reached). Bounds on ``s`` make the diagonal of ``Sigma_d`` lie exactly in the
 range. Thesis Table 6.2 gives the default ranges
-(:data:`TABLE_6_2_RANGES`): a uniform prior on the hyperparameters, whose
-maximum a posteriori is the likelihood maximised inside them.
+(:data:`~skmba.priors._table_6_2.TABLE_6_2_RANGES`): a uniform prior on the
+hyperparameters, whose maximum a posteriori is the likelihood maximised inside them.
 
 Why a lower end: when the model at some ``theta`` reproduces the field data,
 as on the cantilever whose spring only rescales the responses, the plain
@@ -55,12 +55,9 @@ from skmba._core.regression import regression_basis
 from skmba._core.validation import seed_sequence
 from skmba._core.warn import warn
 from skmba.gp._estimator import default_kernel
+from skmba.priors._table_6_2 import TABLE_6_2_RANGES
 
 DISCREPANCY_OPTIMIZERS = ("fmin_l_bfgs_b", "differential_evolution")
-#: Thesis Table 6.2: ranges of the discrepancy roughness (per standardised
-#: design variable) and variance (per response, relative to the variance of
-#: the simulated response), the prior of the discrepancy hyperparameters.
-TABLE_6_2_RANGES = {"roughness": (0.1, 9.0), "variance": (1e-2, 20.0)}
 _LOG_REL_NOISE = (np.log(1e-8), np.log(10.0))
 # Without a variance range: standard deviations within these multiples of
 # each residual's standard deviation.

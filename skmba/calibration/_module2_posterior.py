@@ -90,8 +90,9 @@ class HyperposteriorDraws:
         The draws ``phi_k``.
     log_weights : ndarray of shape (K,)
         ``log p(phi_k) - log q(phi_k)``, normalised to sum to one.
-    laplace_cov : ndarray
-        Covariance of the Laplace approximation (unbounded coordinates).
+    laplace_cov : ndarray or None
+        Covariance of the Laplace approximation (unbounded coordinates);
+        None for the plug-in (:meth:`plug_in`).
     noise_mean : ndarray of shape (q,) or None
         Posterior mean of the noise variances, an importance estimate with
         :data:`N_NOISE_DRAWS` draws of the same proposal weighted by the
@@ -106,13 +107,21 @@ class HyperposteriorDraws:
     mode: DiscrepancyFit
     components: list
     log_weights: np.ndarray
-    laplace_cov: np.ndarray
+    laplace_cov: np.ndarray | None
     noise_mean: np.ndarray | None
     noise_ess: float | None
 
     @property
     def regression(self):
         return self.mode.regression
+
+    @classmethod
+    def plug_in(cls, fit):
+        """The plug-in of a module-2 estimate ``fit``: one draw, weight one."""
+        component = DiscrepancyComponent(
+            fit.kernel_, fit.sigma2, fit.noise, fit.regression
+        )
+        return cls(fit, [component], np.zeros(1), None, None, None)
 
 
 class _Coordinates:
@@ -388,3 +397,24 @@ def fit_hyperposterior(
         else (None, None)
     )
     return HyperposteriorDraws(fit, components, log_w, cov, *noise)
+
+
+def propagated_module2(integrated, *, first_pass, posterior, integrate, second_pass):
+    """The propagated module 2, in two passes; the calibrator's and the
+    sensor designer's.
+
+    1. ``first_pass(integrated)``: draws of the hyperparameters given the
+       field data, with theta integrated over its prior (``integrated``, the
+       prior-integrated emulator);
+    2. ``posterior(draws)``: the posterior of theta over those draws (module
+       3 by MCMC or quadrature for the calibrator, importance quadrature for
+       the designer);
+    3. ``integrate(posterior)``: the emulator integrated over that posterior,
+       a closer proposal than the prior for the hyperparameters' draws;
+    4. ``second_pass(...)``: the draws again, from that integral: the draws
+       module 3 mixes over.
+
+    Returns the second pass's draws and the first pass's posterior.
+    """
+    first = posterior(first_pass(integrated))
+    return second_pass(integrate(first)), first

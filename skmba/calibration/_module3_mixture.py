@@ -52,10 +52,13 @@ class ModelMixture:
         self._S_fixed = None  # the stacked fixed parts, made on first use
         for name in ("N", "n", "q", "P", "X_e", "noise", "emulator"):
             setattr(self, name, getattr(base, name))
-        # What a new observation adds: the noise variances' posterior mean.
-        # (None: not estimated, a mixture that does not predict.)
+        # What a new observation adds: the noise variances' posterior mean;
+        # the plugged noise when it was not estimated (the plug-in, or a
+        # first pass that does not predict).
         self.predictive_noise = (
-            None if draws.noise_mean is None else np.asarray(draws.noise_mean, float)
+            base.predictive_noise
+            if draws.noise_mean is None
+            else np.asarray(draws.noise_mean, float)
         )
 
     def __copy__(self):
@@ -195,6 +198,8 @@ class ModelMixture:
         kept : ndarray of int
             The indices of the draws kept.
         """
+        if len(self.models) == 1:  # one draw (the plug-in) always matters
+            return self, np.arange(1)
         weights = []
         for theta in thetas:
             try:

@@ -28,12 +28,7 @@ from sklearn.utils.validation import check_array
 from skmba._core.progress import as_progress
 from skmba._core.regression import n_regression_terms
 from skmba._core.warn import warn
-
-# Share of the prior mass that must lie in the simulated range of theta
-# (less: error), and share that may lie outside it without a warning (the
-# simulator's own design leaves out 1e-3 per unbounded parameter).
-_PRIOR_MASS_ERROR = 0.01
-_PRIOR_MASS_WARNING = 0.02
+from skmba.priors._theta import check_prior
 
 
 class SimulationFailure(NamedTuple):
@@ -356,57 +351,6 @@ def check_design_size(n_total, regression, k, *, failed=None):
         )
 
 
-#: Observations whose median lies farther outside the simulated range of
-#: their response than this many times the range's width are suspicious.
-RESPONSE_RANGE_FACTOR = 1.0
-
-
-def check_response_ranges(y, y_sim, names=None):
-    """Warn when a response's observations lie far outside its simulations.
-
-    The usual cause is a unit mismatch (mm against m, kN against N): the
-    discrepancy would otherwise absorb a factor of 1000 without a word.
-    A response is suspicious when the median of its (finite) observations
-    lies outside the range of its simulations by more than
-    :data:`RESPONSE_RANGE_FACTOR` times that range's width. ``names`` (the
-    columns of a DataFrame ``y``) name the response in the message.
-
-    Examples
-    --------
-    >>> import warnings
-    >>> y_sim = np.linspace(0.0, 2.0, 20)[:, None]
-    >>> with warnings.catch_warnings(record=True) as caught:
-    ...     warnings.simplefilter("always")
-    ...     check_response_ranges(1000 * y_sim[::2], y_sim)
-    >>> "unit mismatch" in str(caught[0].message)
-    True
-    """
-    lo, hi = np.nanmin(y_sim, axis=0), np.nanmax(y_sim, axis=0)
-    width = hi - lo
-    for j in range(y_sim.shape[1]):
-        obs = y[:, j][np.isfinite(y[:, j])]
-        if not obs.size or width[j] <= 0:
-            continue
-        median = float(np.median(obs))
-        excess = max(lo[j] - median, median - hi[j], 0.0) / width[j]
-        if excess <= RESPONSE_RANGE_FACTOR:
-            continue
-        typical_sim = float(np.median(np.abs(y_sim[:, j])))
-        ratio = abs(median) / typical_sim if typical_sim > 0 else np.inf
-        if names is not None:
-            name = f"response {names[j]!r}"
-        else:
-            name = "the response" if y_sim.shape[1] == 1 else f"response {j}"
-        warn(
-            f"The observations of {name} (column {j} of y) lie far outside "
-            f"the range of its simulations [{lo[j]:.4g}, {hi[j]:.4g}]: their "
-            f"median {median:.4g} is {ratio:.3g} times the simulations' typical "
-            "size. A unit mismatch (mm against m, kN against N) is the usual "
-            "cause; check the units of y against y_sim or the simulator.",
-            UserWarning,
-        )
-
-
 def simulation_design(X, prior, n_runs, given, seed):
     """A Latin hypercube over the range of ``X`` (and of the given runs)
     times the prior's central 0.999 interval."""
@@ -482,17 +426,16 @@ def collect_simulations(simulator, X, q, prior, given, n_runs, seed, progress=No
     )
 
 
-def keep_simulator_runs(est, sims, exc):
-    """After a failed fit, keep its simulator runs on the estimator.
+def kept_simulator_runs(sims, exc):
+    """After a failed fit, the simulator runs to keep on the estimator.
 
-    ``X_sim_``, ``theta_sim_`` and ``y_sim_`` get ``sims`` (the fit's
-    :class:`Simulations`, None when it did not get that far) when the
-    simulator ran, and ``exc`` a note saying how to refit without running
-    it again.
+    Returns ``{"X_sim_": ..., "theta_sim_": ..., "y_sim_": ...}`` from
+    ``sims`` (the fit's :class:`SimulationData`, None when it did not get
+    that far) when the simulator ran, and adds to ``exc`` a note saying how
+    to refit without running it again; else an empty dict.
     """
     if sims is None or not sims.n_simulator_runs:
-        return
-    est.X_sim_, est.theta_sim_, est.y_sim_ = sims.X, sims.theta, sims.y
+        return {}
     exc.add_note(
         f"The {sims.n_simulator_runs} simulator runs of this fit are kept in "
         "X_sim_, theta_sim_ and y_sim_ (with any precomputed simulations): "
@@ -500,6 +443,7 @@ def keep_simulator_runs(est, sims, exc):
         "fit(X, y, X_sim=X_sim_, theta_sim=theta_sim_, y_sim=y_sim_) so as "
         "not to run the simulator again."
     )
+    return {"X_sim_": sims.X, "theta_sim_": sims.theta, "y_sim_": sims.y}
 
 
 def _exception_text(exc):
@@ -550,87 +494,28 @@ def check_failed_runs(sims, regression, k):
     )
 
 
-def _constant_columns(A):
-    spread = np.ptp(A, axis=0)
-    return np.flatnonzero(spread <= 1e-12 * np.abs(A).max(axis=0))
+def checked_prior(prior, given, names=None):
+    """The checked prior; uniform over ``theta_sim`` when None, named by
+    ``names`` (the columns of a theta_sim table) when given.
 
-
-def check_simulation_design(X, prior, sims, names=None):
-    """Whether the simulations can support an emulator and the prior.
-
-    ``names`` (the columns of a DataFrame ``X``) name the design variables
-    in the warning on observation inputs outside the simulations.
+    The range is that of the successful runs; when every row of ``y_sim``
+    failed, that of all the rows of ``theta_sim``, so that the fit goes on
+    to :func:`~skmba.calibration._simulations.check_failed_runs`, which says that too
+    few runs remain (or to the simulator's runs, when there is one).
     """
-    n_sim = len(sims.X)
-    fixed = _constant_columns(sims.theta)
-    if fixed.size:
+    if prior is not None:
+        return check_prior(prior, None if given is None else given.theta.shape[1])
+    if given is None:
         raise ValueError(
-            f"theta_sim column(s) {fixed.tolist()} are constant (e.g. "
-            f"theta[{fixed[0]}] = {sims.theta[0, fixed[0]]:.6g} in every "
-            "run): the simulations carry no information on how the model "
-            "depends on theta. Vary each parameter over the prior's range "
-            "in the simulations."
+            "prior is required when the simulations are run by the "
+            "simulator: pass e.g. prior=[scipy.stats.uniform(lo, hi - lo)]."
         )
-    fixed = _constant_columns(sims.y)
-    if fixed.size:
-        raise ValueError(
-            f"y_sim column(s) {fixed.tolist()} are constant over the "
-            "simulations: a response that does not change with theta or x "
-            "carries no information on theta. Remove these responses from "
-            "y and y_sim."
-        )
-    _check_prior_coverage(prior, sims.theta, n_sim)
-    # The same margin for the observation inputs: a Latin hypercube over
-    # the range of X (the simulator's design) stops short of its ends.
-    lo, hi = sims.X.min(axis=0), sims.X.max(axis=0)
-    margin = (1.0 / max(n_sim - 1, 1) + 1e-9) * (hi - lo)
-    below, above = X < lo - margin, X > hi + margin
-    outside = np.any(below | above, axis=1)
-    if np.any(outside):
-        parts = []
-        for j in np.flatnonzero(np.any(below | above, axis=0)):
-            label = f"{names[j]!r}" if names is not None else f"column {j}"
-            parts.append(
-                f"{label}: {int(np.sum(below[:, j] | above[:, j]))} at "
-                f"[{X[:, j].min():.4g}, {X[:, j].max():.4g}] against simulations "
-                f"over [{lo[j]:.4g}, {hi[j]:.4g}]"
-            )
-        warn(
-            f"{int(outside.sum())} observation input(s) lie outside the range "
-            "of the simulations (widened by one mean spacing of the runs), in "
-            f"the design variable(s) {'; '.join(parts)}: the emulator "
-            "extrapolates there. Extend the simulation design to cover X.",
-            UserWarning,
-        )
-
-
-def _check_prior_coverage(prior, theta_sim, n_sim):
-    """The prior's mass on the simulated range of theta.
-
-    The range is widened by one mean spacing of the runs at each end: a
-    space-filling design leaves about that much uncovered at the edges,
-    where the emulator extrapolates harmlessly.
-    """
-    lo, hi = theta_sim.min(axis=0), theta_sim.max(axis=0)
-    margin = (hi - lo) / max(n_sim - 1, 1)
-    inside = prior.mass_inside(lo - margin, hi + margin)
-    box = ", ".join(
-        f"theta[{j}] in [{a:.4g}, {b:.4g}]"
-        for j, (a, b) in enumerate(zip(lo, hi, strict=True))
+    t = given.theta
+    if len(t) == 0:  # every row of y_sim failed: their theta are still known
+        t = np.array([f.theta for f in given.failures]).reshape(-1, t.shape[1])
+    uniforms = [
+        stats.uniform(lo, hi - lo) for lo, hi in zip(t.min(0), t.max(0), strict=True)
+    ]
+    return check_prior(
+        uniforms if names is None else dict(zip(names, uniforms, strict=True))
     )
-    if inside < _PRIOR_MASS_ERROR:
-        raise ValueError(
-            f"The prior puts {inside:.2%} of its mass on the simulated range "
-            f"of theta_sim ({box}): the simulations miss the prior, and the "
-            "emulator would extrapolate over all of it. Simulate over the "
-            "prior's support (e.g. let the calibrator run the simulator), "
-            "or correct the prior (are its units those of theta_sim?)."
-        )
-    if 1.0 - inside > _PRIOR_MASS_WARNING:
-        warn(
-            f"{1.0 - inside:.1%} of the prior mass lies outside the simulated "
-            f"range of theta_sim ({box}): the emulator extrapolates there, "
-            "and module 2 integrates it over the whole prior. Extend the "
-            "simulations to cover the prior, or narrow the prior.",
-            UserWarning,
-        )

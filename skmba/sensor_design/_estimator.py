@@ -31,58 +31,39 @@ from typing import ClassVar
 import numpy as np
 from joblib import Parallel, delayed
 from scipy import stats
-from sklearn.base import BaseEstimator, clone
+from sklearn.base import BaseEstimator
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from skmba._core.columns import column_names, parameters_last, response_index
 from skmba._core.progress import Progress, results_as_ready
 from skmba._core.threads import BlasTask, blas_threads
-from skmba._core.validation import (
-    Boolean,
-    Count,
-    InstanceOf,
-    NJobs,
-    Options,
-    int_seed,
-    seed_sequence,
-    validate_parameter_table,
-)
+from skmba._core.validation import int_seed, seed_sequence, validate_parameter_table
 from skmba.calibration._estimator import ModularBayesCalibrator
+from skmba.calibration._field_data import prior_names
 from skmba.calibration._module1_emulator import Standardizer, fit_emulator
-from skmba.calibration._module2_plug_in import (
-    discrepancy_kernel,
-)
-from skmba.calibration._module2_prior_integral import integrate_over_prior
-from skmba.calibration._pipeline import (
-    DISCREPANCY_UNCERTAINTIES,
-    module_settings,
-    prior_names,
-)
+from skmba.calibration._settings import PARAMETER_TABLE as CALIBRATION_TABLE
+from skmba.calibration._settings import CalibrationSettings
 from skmba.calibration._summary import design_table, jackknife_mcse
 from skmba.sensor_design._inputs import (
+    PARAMETER_TABLE,
     designer_prior,
     field_design,
     given_prior,
     synthetic_data_priors,
 )
 from skmba.sensor_design._replicates import (
-    PRIOR_UNITS,
     MonteCarloContext,
     criterion_value,
     draw_replicate,
     subset_moments,
     warn_replicate_problems,
 )
-from skmba.sensor_design._subset_likelihood import FieldDesignEmulator
 from skmba.sensor_design._subset_search import (
     all_subsets,
     check_max_size,
     genetic,
     greedy_forward,
 )
-
-SEARCHES = ("exhaustive", "greedy", "genetic")
-CRITERIA = ("trace", "det", "max_eig")
 
 
 class PreposteriorDesigner(BaseEstimator):
@@ -326,34 +307,7 @@ class PreposteriorDesigner(BaseEstimator):
     (3, 1, 1)
     """
 
-    _parameter_table: ClassVar[dict] = {
-        "prior": "no_validation",  # check_prior, in fit
-        "calibrator": [
-            InstanceOf(
-                ModularBayesCalibrator,
-                what="a ModularBayesCalibrator",
-                hint="a template of the MBA settings",
-                allow_none=True,
-            )
-        ],
-        "discrepancy_prior": "no_validation",  # check_design_priors, in fit
-        "discrepancy_uncertainty": [Options(DISCREPANCY_UNCERTAINTIES)],
-        "noise_prior": "no_validation",
-        "X_design": "no_validation",  # check_array, in fit
-        "n_design": [Count(minimum=2, allow_none=True)],
-        "n_mc": [Count(minimum=1)],
-        "search": [Options(SEARCHES)],
-        "max_responses": "no_validation",  # check_max_size, in fit
-        "criterion": [Options(CRITERIA)],
-        "fast": [Boolean()],
-        "n_jobs": [NJobs()],
-        "random_state": "no_validation",  # check_random_state, in fit
-        "population_size": [Count(minimum=2)],
-        "n_generations": [Count(minimum=1)],
-        "verbose": [Count(minimum=0)],
-        "prior_units": [Options(PRIOR_UNITS)],
-        "module2_max_iter": [Count(minimum=1, allow_none=True)],
-    }
+    _parameter_table: ClassVar[dict] = PARAMETER_TABLE
 
     def __init__(
         self,
@@ -443,7 +397,7 @@ class PreposteriorDesigner(BaseEstimator):
         # design (and the genetic search), the nodes, the replicates.
         children = seed_sequence(self.random_state).spawn(5)
         seeds = [int_seed(c) for c in children[:4]]
-        cal = self._template()
+        settings = self._calibration_settings()
         X_sim, theta_sim = X[:, :d], X[:, d:]
 
         # Step 1: emulator, design, priors, prior-integrated emulator.
@@ -453,13 +407,23 @@ class PreposteriorDesigner(BaseEstimator):
             X_sim,
             theta_sim,
             Y,
-            **module_settings(cal)["emulator"],
+            **settings.emulator.kwargs(),
             random_state=seeds[0],
             progress=self._progress(),
         )
-        priors = synthetic_data_priors(self, d, q, scaler.y_scale)
+        priors = synthetic_data_priors(self.get_params(), d, q, scaler.y_scale)
         X_design = field_design(self.X_design, self.n_design, X_sim, seeds[2])
-        ctx = self._context(cal, prior, priors, scaler, emulator, X_design, seeds)
+        ctx = MonteCarloContext.build(
+            settings,
+            emulator,
+            scaler,
+            X_design,
+            prior,
+            priors,
+            (seeds[1], seeds[3]),
+            fast=self.fast,
+            module2_max_iter=self.module2_max_iter,
+        )
         prior_cov = prior.cov()
         self._log("step 1: emulator and prior-integrated emulator", started)
 
@@ -493,45 +457,13 @@ class PreposteriorDesigner(BaseEstimator):
         self._log(f"done: best subset {self.best_subset_}", started)
         return self
 
-    def _template(self):
-        """The calibrator whose MBA settings the designer uses, checked."""
-        cal = clone(
-            ModularBayesCalibrator() if self.calibrator is None else self.calibrator
-        )
-        cal.set_params(prior=None, simulator=None, n_jobs=self.n_jobs)
-        validate_parameter_table(
-            cal._parameter_table, cal.get_params(deep=False), type(cal).__name__
-        )
-        return cal
-
-    def _context(self, cal, prior, priors, scaler, emulator, X_design, seeds):
-        """Step 1 at the design: what every Monte Carlo task needs."""
-        Xs = scaler.x(X_design)
-        design = FieldDesignEmulator(emulator, Xs)
-        settings = module_settings(cal)
-        ctx = MonteCarloContext(
-            self, scaler, design, prior, priors, settings["discrepancy"]
-        )
-        ctx.integrated = integrate_over_prior(
-            emulator,
-            scaler,
-            prior,
-            Xs,
-            **settings["integration"],
-            random_state=seeds[1],
-        )
-        kernel_d = discrepancy_kernel(cal.discrepancy_kernel, Xs)
-        if "roughness" not in kernel_d.get_params():
-            raise TypeError(
-                "The calibrator's discrepancy_kernel has no 'roughness' "
-                "hyperparameter for discrepancy_prior to draw: use a kernel of "
-                "skmba.kernels (e.g. Gauss())."
-            )
-        ctx.kernel_d = kernel_d
-        n_nodes = 33 if prior.dim == 1 else 64
-        ctx.nodes, ctx.weights = prior.integration_nodes(n_nodes, random_state=seeds[3])
-        ctx.pieces = design.pieces(ctx.std_theta(ctx.nodes))
-        return ctx
+    def _calibration_settings(self):
+        """The MBA settings of the calibrator template, checked."""
+        template = self.calibrator or ModularBayesCalibrator()
+        params = {**template.get_params(deep=False), "n_jobs": self.n_jobs}
+        params.update(prior=None, simulator=None)
+        validate_parameter_table(CALIBRATION_TABLE, params, type(template).__name__)
+        return CalibrationSettings.from_params(params)
 
     def _search(self, parallel, ctx, replicates, q, max_size, prior_cov, seed, started):
         """Phase 2: the posterior moments of every subset the search scores.

@@ -14,14 +14,56 @@ Examples
 (4, 1)
 """
 
+from numbers import Real
+
 import numpy as np
 from scipy import stats
 from sklearn.utils import check_array
 
+from skmba._core.validation import Boolean, Count, InstanceOf, NJobs, Options
+from skmba.calibration._estimator import ModularBayesCalibrator
+from skmba.calibration._module2_plug_in import check_interval
+from skmba.calibration._settings import DISCREPANCY_UNCERTAINTIES
 from skmba.calibration._simulations import RUNS_PER_INPUT
 from skmba.priors._hyperprior import Hyperprior
+from skmba.priors._table_6_2 import DEFAULT_DISCREPANCY_PRIOR, DEFAULT_NOISE_PRIOR
 from skmba.priors._theta import check_prior
-from skmba.sensor_design._replicates import check_design_priors
+
+PRIOR_UNITS = ("standardised", "user")
+
+SEARCHES = ("exhaustive", "greedy", "genetic")
+CRITERIA = ("trace", "det", "max_eig")
+
+#: The designer's parameter table (checked at the start of ``fit`` by
+#: :func:`~skmba._core.validation.validate_parameter_table`).
+PARAMETER_TABLE = {
+    "prior": "no_validation",  # check_prior, in fit
+    "calibrator": [
+        InstanceOf(
+            ModularBayesCalibrator,
+            what="a ModularBayesCalibrator",
+            hint="a template of the MBA settings",
+            allow_none=True,
+        )
+    ],
+    "discrepancy_prior": "no_validation",  # check_design_priors, in fit
+    "discrepancy_uncertainty": [Options(DISCREPANCY_UNCERTAINTIES)],
+    "noise_prior": "no_validation",
+    "X_design": "no_validation",  # check_array, in fit
+    "n_design": [Count(minimum=2, allow_none=True)],
+    "n_mc": [Count(minimum=1)],
+    "search": [Options(SEARCHES)],
+    "max_responses": "no_validation",  # check_max_size, in fit
+    "criterion": [Options(CRITERIA)],
+    "fast": [Boolean()],
+    "n_jobs": [NJobs()],
+    "random_state": "no_validation",  # check_random_state, in fit
+    "population_size": [Count(minimum=2)],
+    "n_generations": [Count(minimum=1)],
+    "verbose": [Count(minimum=0)],
+    "prior_units": [Options(PRIOR_UNITS)],
+    "module2_max_iter": [Count(minimum=1, allow_none=True)],
+}
 
 #: Field design points when neither ``X_design`` nor ``n_design`` is given
 #: (section 6.3).
@@ -77,23 +119,24 @@ def designer_prior(prior, calibrator, X):
     return prior, d
 
 
-def synthetic_data_priors(designer, d, q, y_scale):
+def synthetic_data_priors(params, d, q, y_scale):
     """The priors of the synthetic data: ranges (plug-in) or a Hyperprior.
 
-    From the designer's ``discrepancy_uncertainty``, ``discrepancy_prior``,
-    ``noise_prior`` and ``prior_units``.
+    From the designer's parameters ``params`` (``get_params()``):
+    ``discrepancy_uncertainty``, ``discrepancy_prior``, ``noise_prior`` and
+    ``prior_units``.
     """
-    if designer.discrepancy_uncertainty == "plug-in":
+    if params["discrepancy_uncertainty"] == "plug-in":
         return check_design_priors(
-            designer.discrepancy_prior,
-            designer.noise_prior,
-            designer.prior_units,
+            params["discrepancy_prior"],
+            params["noise_prior"],
+            params["prior_units"],
             d,
             q,
             y_scale,
         )
     for name, default in (("noise_prior", None), ("prior_units", "standardised")):
-        value = getattr(designer, name)
+        value = params[name]
         if value != default:
             raise ValueError(
                 f"{name}={value!r} belongs to discrepancy_uncertainty='plug-in'; "
@@ -101,7 +144,7 @@ def synthetic_data_priors(designer, d, q, y_scale):
                 "and every prior is in standardised units: leave "
                 f"{name} at {default!r}."
             )
-    prior = Hyperprior.from_spec(designer.discrepancy_prior)
+    prior = Hyperprior.from_spec(params["discrepancy_prior"])
     prior.scales(q)
     return prior
 
@@ -130,3 +173,72 @@ def field_design(X_design, n_design, X_sim, seed):
             "extrapolate. Keep X_design inside it or extend the simulations."
         )
     return X_design
+
+
+def check_design_priors(discrepancy_prior, noise_prior, prior_units, d, q, y_scale):
+    """The designer's priors of the discrepancy and the noise, checked.
+
+    Returns a dict of ``(low, high)`` arrays in standardised units (keys
+    ``roughness``, ``variance``, ``mean``, ``noise``) and the ``correlation``
+    matrix or ``"random"``.
+    """
+    given = {} if discrepancy_prior is None else discrepancy_prior
+    if not isinstance(given, dict):
+        raise TypeError(
+            "discrepancy_prior must be a dict with keys among "
+            f"{sorted(DEFAULT_DISCREPANCY_PRIOR)}, got {type(given).__name__}."
+        )
+    unknown = set(given) - set(DEFAULT_DISCREPANCY_PRIOR)
+    if unknown:
+        raise ValueError(
+            f"discrepancy_prior has unknown keys {sorted(unknown)}; use "
+            f"{sorted(DEFAULT_DISCREPANCY_PRIOR)}."
+        )
+    spec = {**DEFAULT_DISCREPANCY_PRIOR, **given}
+    out = {
+        "roughness": check_interval(
+            spec["roughness"], "discrepancy_prior['roughness']", d, lower=0.0
+        ),
+        "variance": check_interval(
+            spec["variance"], "discrepancy_prior['variance']", q, lower=0.0
+        ),
+        "mean": check_interval(spec["mean"], "discrepancy_prior['mean']", q),
+        "noise": check_interval(
+            DEFAULT_NOISE_PRIOR if noise_prior is None else noise_prior,
+            "noise_prior",
+            q,
+            lower=0.0,
+        ),
+    }
+    if np.any(out["roughness"][0] <= 0):
+        raise ValueError("discrepancy_prior['roughness'] must be > 0.")
+    corr = spec["correlation"]
+    if isinstance(corr, str):
+        if corr not in ("random", "independent"):
+            raise ValueError(
+                "discrepancy_prior['correlation'] must be 'random', "
+                f"'independent' or a number in (-1/(q-1), 1), got {corr!r}."
+            )
+        if corr == "independent":
+            corr = np.eye(q)
+    elif isinstance(corr, Real):
+        low = -1.0 / (q - 1) if q > 1 else -1.0
+        if not low < corr < 1.0:
+            raise ValueError(
+                f"discrepancy_prior['correlation']={corr} gives a matrix that "
+                f"is not positive definite; use a number in ({low:.3g}, 1)."
+            )
+        corr = np.full((q, q), float(corr))
+        np.fill_diagonal(corr, 1.0)
+    else:
+        raise TypeError(
+            "discrepancy_prior['correlation'] must be 'random', 'independent' "
+            f"or a number, got {corr!r}."
+        )
+    out["correlation"] = corr
+    if prior_units == "user":
+        # Response units -> the standardised units used internally.
+        for key, power in (("variance", 2), ("noise", 2), ("mean", 1)):
+            lo, hi = out[key]
+            out[key] = (lo / y_scale**power, hi / y_scale**power)
+    return out

@@ -26,8 +26,7 @@ Examples
 
 import time
 import warnings
-from dataclasses import replace
-from numbers import Real
+from dataclasses import dataclass, replace
 
 import numpy as np
 from joblib import delayed, effective_n_jobs
@@ -42,33 +41,25 @@ from skmba._core.threads import BlasTask
 from skmba._core.validation import int_seed
 from skmba._core.warn import warn
 from skmba.calibration._module2_plug_in import (
-    TABLE_6_2_RANGES,
-    check_interval,
+    discrepancy_kernel,
     fit_discrepancy,
 )
 from skmba.calibration._module2_posterior import fit_hyperposterior
-from skmba.calibration._module2_prior_integral import integrate_over_rule
+from skmba.calibration._module2_prior_integral import (
+    integrate_over_prior,
+    integrate_over_rule,
+)
 from skmba.priors._hyperprior import Hyperprior
 from skmba.sensor_design._posterior_moments import posterior_moments
-from skmba.sensor_design._subset_likelihood import SubsetLikelihood
+from skmba.sensor_design._subset_likelihood import (
+    FieldDesignEmulator,
+    SubsetLikelihood,
+)
 from skmba.sensor_design._subset_tree import (
     FieldTerms,
     path_bytes,
     subset_tree_log_likelihoods,
 )
-
-PRIOR_UNITS = ("standardised", "user")
-
-#: Table 6.2 of the thesis, in the standardised units of the simulations:
-#: discrepancy roughness, variance (relative to each response's variance)
-#: and regression coefficients (in response standard deviations).
-DEFAULT_DISCREPANCY_PRIOR = {
-    **TABLE_6_2_RANGES,
-    "mean": (-5.0, 5.0),
-    "correlation": "random",
-}
-#: Table 6.2: observation noise variance relative to each response's variance.
-DEFAULT_NOISE_PRIOR = (0.0, 1e-4)
 
 
 def criterion_value(cov, prior_cov, criterion):
@@ -125,26 +116,89 @@ def criterion_value(cov, prior_cov, criterion):
     return float(values[0]) if single else values.reshape(cov.shape[:-2])
 
 
+@dataclass(frozen=True)
 class MonteCarloContext:
-    """What every Monte Carlo task needs; shipped once per task by joblib."""
+    """What every Monte Carlo task needs; shipped once per task by joblib.
 
-    def __init__(self, designer, scaler, design, prior, priors, module2):
-        # ``priors``: the plug-in ranges (a dict) or a Hyperprior (propagate).
-        self.hyperprior = priors if isinstance(priors, Hyperprior) else None
-        self.scaler = scaler
-        self.emulator = design.emulator
-        self.design = design
-        self.prior = prior
-        self.priors = priors
-        self.module2 = module2
-        self.fast = designer.fast
-        self.module2_max_iter = designer.module2_max_iter
-        self.Xs = design.X_e
-        self.n, self.q = design.n, design.q
-        self.H_d = regression_basis(self.Xs, module2["regression"])
-        self.nodes = self.pieces = self.weights = None
-        self.integrated = None
-        self.kernel_d = None
+    Complete when constructed: :meth:`build` makes it from step 1's pieces.
+    """
+
+    scaler: object
+    design: object  # FieldDesignEmulator at the field design
+    prior: object
+    priors: object  # the plug-in ranges (a dict) or a Hyperprior (propagate)
+    module2: object  # the calibrator's DiscrepancySettings
+    fast: bool
+    module2_max_iter: int | None
+    integrated: object  # the emulator integrated over the prior
+    kernel_d: object  # the discrepancy correlation the data are drawn with
+    nodes: np.ndarray  # the prior's integration rule (user units)
+    weights: np.ndarray
+    pieces: object  # the design's emulator pieces at the nodes
+
+    @classmethod
+    def build(cls, settings, emulator, scaler, X_design, prior, priors, seeds, **kw):
+        """Step 1 at the design: the prior-integrated emulator, the discrepancy
+        kernel and the prior's rule (``seeds``: of the integral and the
+        rule); ``kw``: ``fast`` and ``module2_max_iter``."""
+        Xs = scaler.x(X_design)
+        design = FieldDesignEmulator(emulator, Xs)
+        integrated = integrate_over_prior(
+            emulator,
+            scaler,
+            prior,
+            Xs,
+            **settings.integration.kwargs(),
+            random_state=seeds[0],
+        )
+        kernel_d = discrepancy_kernel(settings.discrepancy.kernel, Xs)
+        if "roughness" not in kernel_d.get_params():
+            raise TypeError(
+                "The calibrator's discrepancy_kernel has no 'roughness' "
+                "hyperparameter for discrepancy_prior to draw: use a kernel of "
+                "skmba.kernels (e.g. Gauss())."
+            )
+        n_nodes = 33 if prior.dim == 1 else 64
+        nodes, weights = prior.integration_nodes(n_nodes, random_state=seeds[1])
+        pieces = design.pieces(scaler.theta(nodes))
+        return cls(
+            scaler,
+            design,
+            prior,
+            priors,
+            settings.discrepancy,
+            integrated=integrated,
+            kernel_d=kernel_d,
+            nodes=nodes,
+            weights=weights,
+            pieces=pieces,
+            **kw,
+        )
+
+    @property
+    def hyperprior(self):
+        """The Hyperprior of the propagated module 2, else None (plug-in)."""
+        return self.priors if isinstance(self.priors, Hyperprior) else None
+
+    @property
+    def emulator(self):
+        return self.design.emulator
+
+    @property
+    def Xs(self):
+        return self.design.X_e
+
+    @property
+    def n(self):
+        return self.design.n
+
+    @property
+    def q(self):
+        return self.design.q
+
+    @property
+    def H_d(self):
+        return regression_basis(self.Xs, self.module2.regression)
 
     def std_theta(self, theta):
         return self.scaler.theta(theta)
@@ -256,7 +310,7 @@ def _fit_module2(ctx, rep, responses):
             ctx.Xs,
             residual,
             integrated.cov,
-            **ctx.module2,
+            **ctx.module2.kwargs(),
             ranges={key: ctx.priors[key] for key in ("roughness", "variance")},
             random_state=seed,
             start=start,
@@ -286,10 +340,10 @@ def _fit_module2_draws(ctx, rep, responses):
             rep.Y_e[:, idx] - integrated.mean,
             integrated.cov,
             prior=prior,
-            kernel=ctx.module2["kernel"],
-            regression=ctx.module2["regression"],
-            noise=ctx.module2["noise"],
-            n_restarts=ctx.module2["n_restarts"],
+            kernel=ctx.module2.kernel,
+            regression=ctx.module2.regression,
+            noise=ctx.module2.noise,
+            n_restarts=ctx.module2.n_restarts,
             random_state=seed,
             # The designer predicts no new observation: the noise
             # variances' posterior mean (512 evaluations) would go unused.
@@ -502,75 +556,6 @@ def _stage1_log_likelihoods(ctx, replicates, subsets):
                 out[i] = special.logsumexp(
                     values[:, mine] + log_w[mine][None, :, None], axis=1
                 )
-    return out
-
-
-def check_design_priors(discrepancy_prior, noise_prior, prior_units, d, q, y_scale):
-    """The designer's priors of the discrepancy and the noise, checked.
-
-    Returns a dict of ``(low, high)`` arrays in standardised units (keys
-    ``roughness``, ``variance``, ``mean``, ``noise``) and the ``correlation``
-    matrix or ``"random"``.
-    """
-    given = {} if discrepancy_prior is None else discrepancy_prior
-    if not isinstance(given, dict):
-        raise TypeError(
-            "discrepancy_prior must be a dict with keys among "
-            f"{sorted(DEFAULT_DISCREPANCY_PRIOR)}, got {type(given).__name__}."
-        )
-    unknown = set(given) - set(DEFAULT_DISCREPANCY_PRIOR)
-    if unknown:
-        raise ValueError(
-            f"discrepancy_prior has unknown keys {sorted(unknown)}; use "
-            f"{sorted(DEFAULT_DISCREPANCY_PRIOR)}."
-        )
-    spec = {**DEFAULT_DISCREPANCY_PRIOR, **given}
-    out = {
-        "roughness": check_interval(
-            spec["roughness"], "discrepancy_prior['roughness']", d, lower=0.0
-        ),
-        "variance": check_interval(
-            spec["variance"], "discrepancy_prior['variance']", q, lower=0.0
-        ),
-        "mean": check_interval(spec["mean"], "discrepancy_prior['mean']", q),
-        "noise": check_interval(
-            DEFAULT_NOISE_PRIOR if noise_prior is None else noise_prior,
-            "noise_prior",
-            q,
-            lower=0.0,
-        ),
-    }
-    if np.any(out["roughness"][0] <= 0):
-        raise ValueError("discrepancy_prior['roughness'] must be > 0.")
-    corr = spec["correlation"]
-    if isinstance(corr, str):
-        if corr not in ("random", "independent"):
-            raise ValueError(
-                "discrepancy_prior['correlation'] must be 'random', "
-                f"'independent' or a number in (-1/(q-1), 1), got {corr!r}."
-            )
-        if corr == "independent":
-            corr = np.eye(q)
-    elif isinstance(corr, Real):
-        low = -1.0 / (q - 1) if q > 1 else -1.0
-        if not low < corr < 1.0:
-            raise ValueError(
-                f"discrepancy_prior['correlation']={corr} gives a matrix that "
-                f"is not positive definite; use a number in ({low:.3g}, 1)."
-            )
-        corr = np.full((q, q), float(corr))
-        np.fill_diagonal(corr, 1.0)
-    else:
-        raise TypeError(
-            "discrepancy_prior['correlation'] must be 'random', 'independent' "
-            f"or a number, got {corr!r}."
-        )
-    out["correlation"] = corr
-    if prior_units == "user":
-        # Response units -> the standardised units used internally.
-        for key, power in (("variance", 2), ("noise", 2), ("mean", 1)):
-            lo, hi = out[key]
-            out[key] = (lo / y_scale**power, hi / y_scale**power)
     return out
 
 

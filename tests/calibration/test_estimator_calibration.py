@@ -1139,8 +1139,8 @@ def test_a_numpy_generator_seeds_the_fit_reproducibly():
 
 def test_module2_treatments():
     # "propagate" (default) integrates the module-2 hyperparameters out over
-    # draws; "plug-in" is the thesis' MBA with one global model.
-    from skmba.calibration._module3_likelihood import GlobalModel
+    # draws; "plug-in" is the thesis' MBA: one global model, a mixture of
+    # one draw of weight one, whose likelihood is its global model's.
     from skmba.calibration._module3_mixture import ModelMixture
 
     data = make_cantilever(30, 10, random_state=0)
@@ -1148,7 +1148,11 @@ def test_module2_treatments():
     plug_in = fit(data, n_restarts_optimizer=0, discrepancy_uncertainty="plug-in")
     assert isinstance(default.global_model_, ModelMixture)
     assert len(default.global_model_.models) == 16
-    assert isinstance(plug_in.global_model_, GlobalModel)
+    assert isinstance(plug_in.global_model_, ModelMixture)
+    assert len(plug_in.global_model_.models) == 1
+    t_std = (np.array([65e3]) - plug_in.theta_offset_) / plug_in.theta_scale_
+    base = plug_in.global_model_.base
+    assert plug_in.global_model_.log_likelihood(t_std) == base.log_likelihood(t_std)
     for cal in (default, plug_in):
         assert cal.identifiability_.shape == (1,)
         assert 0 <= cal.identifiability_[0] <= 1

@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 
 from skmba import ModularBayesCalibrator
+from skmba.calibration._field_data import check_response_ranges
 from skmba.calibration._simulations import (
     SimulationData,
     SimulationFailure,
     check_failed_runs,
-    check_response_ranges,
     given_simulations,
     run_simulator,
 )

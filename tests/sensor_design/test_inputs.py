@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
+from skmba import PreposteriorDesigner
 from skmba.priors._hyperprior import Hyperprior
 from skmba.sensor_design._inputs import (
     DEFAULT_N_DESIGN,
@@ -43,16 +44,15 @@ def test_field_design_fills_the_simulated_range():
 
 
 def test_synthetic_data_priors_by_treatment():
-    designer = SimpleNamespace(
+    params = PreposteriorDesigner(
         discrepancy_uncertainty="propagate",
         discrepancy_prior={"sd_scale": [0.5, 0.1]},
-        noise_prior=None,
-        prior_units="standardised",
-    )
-    prior = synthetic_data_priors(designer, d=1, q=2, y_scale=np.ones(2))
+    ).get_params()
+    prior = synthetic_data_priors(params, d=1, q=2, y_scale=np.ones(2))
     assert isinstance(prior, Hyperprior)
     np.testing.assert_allclose(prior.scales(2), [0.5, 0.1])
-    designer.discrepancy_uncertainty = "plug-in"
-    designer.discrepancy_prior = {"variance": (0.01, 2.0)}
-    ranges = synthetic_data_priors(designer, d=1, q=2, y_scale=np.ones(2))
+    params.update(
+        discrepancy_uncertainty="plug-in", discrepancy_prior={"variance": (0.01, 2.0)}
+    )
+    ranges = synthetic_data_priors(params, d=1, q=2, y_scale=np.ones(2))
     np.testing.assert_allclose(ranges["variance"][1], [2.0, 2.0])
