@@ -210,7 +210,7 @@ def fit_cantilever(
 ):
     """4 chains on ``data`` (a ``make_cantilever`` set-up), seed 0 unless
     given: the fitted calibrator, the wall time of ``fit`` and its warnings
-    (also used by ``bench_peers.py``)."""
+    (also used by ``benchmarks.bench_peers``)."""
     cal = ModularBayesCalibrator(
         prior=data.prior,
         n_chains=4,

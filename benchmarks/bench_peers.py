@@ -77,27 +77,24 @@ too). surmise's chain is serial and uses one core; skmba's ``n_jobs=-1`` runs
 its 4 chains on all cores: the ratio is one of the packages as they can be
 used, not of the samplers per core.
 
-Run with ``python benchmarks/bench_peers.py`` (about 1.5 minutes); add
+Run from the repository root with ``python -m benchmarks.bench_peers``
+(about 1.5 minutes; it imports ``benchmarks.bench_calibration``); add
 ``--quick`` for a smoke run (44 simulations, 18 observations, short chains;
 its numbers mean little). surmise is an optional dependency of this benchmark
 only: ``pip install surmise``; without it the script says so and exits.
 """
 
 import argparse
-import sys
 import time
 import warnings
-from pathlib import Path
 
 import numpy as np
 import threadpoolctl
 
+from benchmarks.bench_calibration import fit_cantilever
 from skmba._core.threads import describe_threads
 from skmba.datasets import make_cantilever
 from skmba.mcmc._diagnostics import ess_bulk, split_rhat
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_calibration import fit_cantilever
 
 try:
     import surmise

@@ -138,10 +138,10 @@ z = (data.y_obs[gap] - mean[gap]) / std[gap]
 print(f"{np.sum(np.abs(z) <= 1.96)} of {gap.sum()} missing readings in the 95 % band")
 
 # %%
-# Over many seeds, ``benchmarks/missing_data.py`` measures the same thing:
-# with 10 % of the readings of the cantilever removed at random, the 95 %
-# bands hold 0.945-0.95 of them, and theta stays inside the complete data's
-# interval (see :ref:`user-guide-monitoring-data`).
+# Over many seeds, ``python -m validation.studies.missing_data`` measures
+# the same thing: with 10 % of the readings of the cantilever removed at
+# random, the 95 % bands hold 0.945-0.95 of them, and theta stays inside
+# the complete data's interval (see :ref:`user-guide-monitoring-data`).
 #
 # What the data say about k
 # -------------------------

@@ -1,4 +1,4 @@
-"""The seeded problems of the validity suite (issue 13's table).
+"""The seeded problems of the validity suite (issue 13's table): a1 ... freq.
 
 Each case is a function ``case(seed) -> Case`` building one replicate: the
 field data ``X, y``, the simulations ``X_sim, theta_sim, y_sim``, the
@@ -13,7 +13,12 @@ response. ``CASES`` maps each name to its builder, the range of the design
 variables (where the held-out inputs of the predictive checks lie) and a
 one-line description.
 
-Run ``python benchmarks/validity.py`` for the suite; see its docstring.
+Callers: :func:`validation.suite.registry` (which renames this module's
+``sbc_a1`` and ``sbc_a2``, theta* drawn without a discrepancy, to
+``sbc0_a1`` and ``sbc0_a2``), :mod:`validation.sbc_cases` (the shared
+designs and helpers), the studies of :mod:`validation.studies` and the
+tests in ``tests/validation``. Run ``python -m validation`` for the suite;
+the cases are described in ``docs/validity.rst``.
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@
 Issue 13 asks that on an identifiable design the posterior sd of theta stay
 within 1.5 times what the discrepancy-free likelihood gives: the width must
 come from the data, not from assumptions about the discrepancy. Per seed of
-a case of ``_validity_cases.py`` this fits the calibrator twice on the same
+a case of :mod:`validation.cases` this fits the calibrator twice on the same
 data:
 
 - with its defaults;
@@ -16,7 +16,9 @@ reference, how often each interval covers theta*.
 
 Usage::
 
-    python benchmarks/reference_sd.py --case freq --n-seeds 50 --n-jobs 2
+    python -m validation.studies.reference_sd --case freq --n-seeds 50 --n-jobs 2
+
+The freq result is quoted in ``docs/validity.rst``.
 """
 
 from __future__ import annotations
@@ -26,10 +28,10 @@ import warnings
 
 import numpy as np
 import threadpoolctl
-from _validity_cases import CASES
 from joblib import Parallel, delayed
 
 from skmba import ModularBayesCalibrator
+from validation.cases import CASES
 
 NO_DISCREPANCY = {
     "discrepancy_uncertainty": "plug-in",
@@ -60,7 +62,10 @@ def one_seed(case, seed):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(
+        prog="python -m validation.studies.reference_sd",
+        description=__doc__.split("\n")[0],
+    )
     parser.add_argument("--case", default="freq", choices=sorted(CASES))
     parser.add_argument("--n-seeds", type=int, default=20)
     parser.add_argument("--n-jobs", type=int, default=1)

@@ -1,5 +1,5 @@
-"""The missing-readings study ``benchmarks/missing_data.py``: helpers and a
-pinned subset.
+"""The missing-readings study ``validation/studies/missing_data.py``: helpers
+and a pinned subset.
 
 The fast tests check how the gaps are drawn; the slow test runs 8 fixed
 seeds of the a1 and b1 cantilever cases and pins today's behaviour of the
@@ -8,16 +8,10 @@ catch a regression (the full study, 40 seeds per case, is quoted in
 ``docs/monitoring_data.rst``).
 """
 
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 
-BENCHMARKS = Path(__file__).resolve().parents[2] / "benchmarks"
-sys.path.insert(0, str(BENCHMARKS))
-
-import missing_data  # noqa: E402
+from validation.studies import missing_data
 
 
 def test_gaps_remove_the_share_asked_and_never_a_whole_response():

@@ -2,7 +2,7 @@
 
 New observations are covered at 0.93-0.94 instead of 0.95 on the validity
 suite's designs whose truth has no discrepancy on some response
-(``new_observation_noise.py --pure-noise`` shows why: the default prior's
+(``new_observation_noise --pure-noise`` shows why: the default prior's
 discrepancy takes up part of the noise). A spike-and-slab prior, "no
 discrepancy" with probability ``pi0`` and the default prior otherwise,
 would let such data switch the discrepancy off. This script estimates what
@@ -29,33 +29,24 @@ observations (mean over seeds).
 
 Usage::
 
-    python benchmarks/spike_probe.py --cases a1,b1,c1,c3,freq --n-seeds 40 --n-jobs 2
+    python -m validation.studies.spike_probe --cases a1,b1,c1,c3,freq --n-seeds 40
+
+(add ``--n-jobs 2`` for two processes). The results are in
+``docs/validity.rst`` ("A prior mass on 'no discrepancy' would not close
+it").
 """
 
 import argparse
-import sys
 import warnings
-from pathlib import Path
 
 import numpy as np
 import threadpoolctl
 from joblib import Parallel, delayed
 from scipy import special
 
-HERE = Path(__file__).resolve().parent
-if str(HERE) not in sys.path:
-    sys.path.insert(0, str(HERE))
-
-from validity import (  # noqa: E402
-    LEVEL,
-    N_TEST,
-    Z_LEVEL,
-    cases,
-    held_out_inputs,
-    observation_coverage,
-)
-
-from skmba import ModularBayesCalibrator  # noqa: E402
+from skmba import ModularBayesCalibrator
+from validation.statistics import LEVEL, Z_LEVEL, observation_coverage
+from validation.suite import N_TEST, held_out_inputs, registry
 
 #: The spike's ``sd_scale`` (the default's is 0.5).
 SPIKE_SD_SCALE = 1e-3
@@ -94,7 +85,7 @@ def mixed_normal(means, sds, weights):
 
 
 def run_replicate(name, seed, pi0):
-    spec = cases()[name]
+    spec = registry()[name]
     case = spec.build(seed)
     X_test = held_out_inputs(spec.X_bounds, N_TEST)
     truth = case.reality_fn(X_test)
@@ -143,6 +134,7 @@ def run_replicate(name, seed, pi0):
 
 def main(argv=None):
     parser = argparse.ArgumentParser(
+        prog="python -m validation.studies.spike_probe",
         description=__doc__.split("\n\n")[0],
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )

@@ -19,13 +19,19 @@ grid of the design variable and interpolated, so the field data and the
 held-out inputs of the predictive checks see one function.
 
 ``sbc_a1`` and ``sbc_a2`` are the designs a1 and a2 of
-``_validity_cases.py`` (the same simulations and field inputs).
+:mod:`validation.cases` (the same simulations and field inputs).
+``SBC_CASES`` is read by :func:`validation.suite.registry`;
+:func:`draw_field_data` also by ``validation.studies.designer_vs_calibrator``.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from _validity_cases import (
+from scipy import interpolate
+
+from skmba.datasets import make_cantilever
+from skmba.priors._hyperprior import Hyperprior
+from validation.cases import (
     A2_BOUNDS,
     A2_SIZES,
     CANTILEVER_SIZES,
@@ -38,10 +44,6 @@ from _validity_cases import (
     _uniform_prior,
     quadratic_model,
 )
-from scipy import interpolate
-
-from skmba.datasets import make_cantilever
-from skmba.priors._hyperprior import Hyperprior
 
 GRID = 400  # points of the discrepancy draw over the design variable's range
 

@@ -1,80 +1,63 @@
 """Why 95 % intervals of new observations cover a little less: the noise.
 
-A diagnostic of issue 13's open target (new-observation coverage 0.94-0.96):
-for each seed of a validity case (``benchmarks/_validity_cases.py``) the
-calibrator is fitted with the defaults, and, besides the coverage of fresh
-noisy observations at held-out inputs (as in ``validity.py``), it prints
+A diagnostic of issue 13's target for new observations (coverage
+0.94-0.96). For each seed of a case (``--case``, a name of
+:func:`validation.suite.registry`) the calibrator is fitted with the
+defaults and, besides the exact coverage of new observations at the
+held-out inputs (as in ``python -m validation``), it prints the module-2
+mode of the noise variance over the true one (``noise_``), the noise
+variance the predictions use (``var(predict) - var(predict_reality)``,
+median over the held-out inputs) over the true, and the fitted discrepancy
+roughness; then the same with the roughness capped (``--roughness-cap``),
+and ``P(|t_nu| <= 1.96)`` for comparison. Modes:
 
-* the module-2 mode of the noise variance over the true one (``noise_``);
-* the noise variance the predictions use, ``var(predict) -
-  var(predict_reality)`` (median over the held-out inputs), over the true;
-* the fitted discrepancy roughness,
-
-and the same with the discrepancy roughness capped (``--roughness-cap``),
-then the coverage that a known noise level estimated with ``nu`` degrees of
-freedom would give, ``P(|t_nu| <= 1.96)``, for comparison.
-
-With ``--pure-noise``, module 2 alone (``fit_hyperposterior`` of
-``skmba.calibration._module2_posterior``, the default prior) on data that are pure noise
-around a constant (one response, 25 readings, no emulator): the noise variances'
-posterior mean over the true one, and the coverage of new observations that adding it
-gives, ``P(|Z| <= 1.96 sqrt(mean / true))``, with the discrepancy prior as it is and
-practically switched off (``sd_scale`` 1e-3), against the conjugate ideal (a flat mean
-and a log-uniform noise prior, no discrepancy: ``P(|t_24| <= 1.96 sqrt(24 / 22))``). It
-tells the share of the shortfall that the discrepancy prior takes: where the truth has
-no discrepancy, it explains part of the noise.
-
-With ``--ideal``, no fits: on the seeds of ``--case``, the interval of a
-method that knows the reality and estimates only the noise (the Student-t
-posterior predictive, exact at 95 % over seeds) and how many of the
-validity suite's seeded fresh observations it holds: the "one draw"
-estimate's own luck, against which the calibrator's is read.
-
-With ``--emulator`` (a1 and a2, whose reality is the model at theta*):
-the emulator's error at the held-out inputs and theta*, and its plug-in
-sd, over the noise sd: whether module 1's plug-in hyperparameters leave a
-share of the residual unexplained.
+- ``--pure-noise``: module 2 alone (``fit_hyperposterior`` with the default
+  prior) on pure noise around a constant (one response, 25 readings, no
+  emulator), with the discrepancy prior as it is and practically off
+  (``sd_scale`` 1e-3), against the conjugate ideal: the share of the
+  shortfall that the discrepancy prior takes;
+- ``--ideal`` (no fits): the Student-t interval of a method that knows the
+  reality and estimates only the noise, exact at 95 % over seeds, and how
+  many of the suite's seeded fresh observations it holds (the "one draw"
+  estimate's own luck);
+- ``--emulator`` (a1, a2, whose reality is the model at theta*): the
+  emulator's error and plug-in sd at the held-out inputs and theta*, over
+  the noise sd.
 
 Usage::
 
-    python benchmarks/new_observation_noise.py --case a1 --n-seeds 40 --n-jobs 2
-    python benchmarks/new_observation_noise.py --case a1 --n-seeds 50 --emulator
-    python benchmarks/new_observation_noise.py --case a1 --n-seeds 50 --ideal
-    python benchmarks/new_observation_noise.py --pure-noise --n-seeds 200 --n-jobs 2
+    python -m validation.studies.new_observation_noise --case a1 --n-seeds 40
+    python -m validation.studies.new_observation_noise --case a1 --n-seeds 50 --ideal
+    python -m validation.studies.new_observation_noise --pure-noise --n-seeds 200
+
+(``--emulator`` likewise; ``--n-jobs 2`` for two processes). The results
+are in ``docs/validity.rst`` ("Where the shortfall comes from", "New
+observations, measured exactly").
 """
 
 import argparse
-import sys
 import warnings
-from pathlib import Path
 
 import numpy as np
 import threadpoolctl
 from joblib import Parallel, delayed
 from scipy import stats
 
-HERE = Path(__file__).resolve().parent
-if str(HERE) not in sys.path:
-    sys.path.insert(0, str(HERE))
-
-from validity import (  # noqa: E402
+from skmba import ModularBayesCalibrator
+from skmba.calibration._module2_posterior import fit_hyperposterior
+from skmba.priors._hyperprior import Hyperprior
+from validation.statistics import (
     LEVEL,
-    N_TEST,
     Z_LEVEL,
-    cases,
     fresh_observations,
-    held_out_inputs,
     observation_coverage,
 )
-
-from skmba import ModularBayesCalibrator  # noqa: E402
-from skmba.calibration._module2_posterior import fit_hyperposterior  # noqa: E402
-from skmba.priors._hyperprior import Hyperprior  # noqa: E402
+from validation.suite import N_TEST, held_out_inputs, registry
 
 
 def run_replicate(name, seed, discrepancy_prior=None):
     """Fit one seed; the coverage of new observations and the noise ratios."""
-    spec = cases()[name]
+    spec = registry()[name]
     case = spec.build(seed)
     with threadpoolctl.threadpool_limits(1), warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -122,7 +105,15 @@ def pure_noise_replicate(seed, sd_scale):
 
 
 def pure_noise(n_seeds, n_jobs):
-    """Print the pure-noise probe (see the module docstring)."""
+    """Print the pure-noise probe (``--pure-noise``).
+
+    Per ``sd_scale`` of the discrepancy prior (the default's, and 1e-3: the
+    discrepancy practically off), the noise variance's posterior mean and
+    mode over the true one, and the coverage of new observations that
+    adding the mean gives, ``P(|Z| <= 1.96 sqrt(mean / true))``; then the
+    conjugate ideal (a flat mean and a log-uniform noise prior, no
+    discrepancy): ``P(|t_24| <= 1.96 sqrt(24 / 22))``.
+    """
     for sd_scale in (Hyperprior().sd_scale, 1e-3):
         ratios = np.array(
             Parallel(n_jobs=n_jobs)(
@@ -168,7 +159,7 @@ def emulator_replicate(name, seed):
     """
     if name not in MODEL_IS_REALITY:
         raise ValueError(f"--emulator needs one of {MODEL_IS_REALITY}, got {name!r}")
-    spec = cases()[name]
+    spec = registry()[name]
     case = spec.build(seed)
     with threadpoolctl.threadpool_limits(1), warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -200,9 +191,9 @@ def ideal_reference(name, n_seeds):
     new observations at exactly ``level``. Returns its expected coverage
     (mean over seeds of the closed form) and the share of the suite's
     seeded fresh observations (one per held-out input, as the "one draw"
-    estimate of ``validity.py``) it holds, per response.
+    estimate of ``python -m validation``) it holds, per response.
     """
-    spec = cases()[name]
+    spec = registry()[name]
     expected, drawn = [], []
     for seed in range(n_seeds):
         case = spec.build(seed)
@@ -218,12 +209,13 @@ def ideal_reference(name, n_seeds):
     return np.mean(expected, axis=(0, 1)), np.mean(drawn, axis=(0, 1))
 
 
-def main(argv=None):
+def _parser():
     parser = argparse.ArgumentParser(
+        prog="python -m validation.studies.new_observation_noise",
         description=__doc__.split("\n\n")[0],
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument("--case", default="a1", help="a case of validity.py")
+    parser.add_argument("--case", default="a1", help="a case of python -m validation")
     parser.add_argument("--n-seeds", type=int, default=20, help="seeds")
     parser.add_argument("--n-jobs", type=int, default=1, help="parallel seeds")
     parser.add_argument(
@@ -247,49 +239,64 @@ def main(argv=None):
         action="store_true",
         help="module 2 alone on pure noise, with and without the discrepancy",
     )
-    args = parser.parse_args(argv)
-    if args.pure_noise:
-        pure_noise(args.n_seeds, args.n_jobs)
-        return
-    if args.emulator:
-        out = np.array(
-            Parallel(n_jobs=args.n_jobs)(
-                delayed(emulator_replicate)(args.case, seed)
-                for seed in range(args.n_seeds)
-            )
+    return parser
+
+
+def print_emulator(case, n_seeds, n_jobs):
+    """Print the ``--emulator`` check (medians over seeds, per response)."""
+    out = np.array(
+        Parallel(n_jobs=n_jobs)(
+            delayed(emulator_replicate)(case, seed) for seed in range(n_seeds)
         )
-        error, sd, z = np.median(out, axis=0)
-        print(
-            f"{args.case}, {args.n_seeds} seeds, emulator at theta* (medians over "
-            f"seeds, per response): rms error / noise sd {np.round(error, 4)}; "
-            f"rms plug-in sd / noise sd {np.round(sd, 4)}; rms error / sd "
-            f"{np.round(z, 3)}; largest rms error / noise sd "
-            f"{np.round(out[:, 0].max(axis=0), 3)}"
-        )
-        return
-    if args.ideal:
-        expected, drawn = ideal_reference(args.case, args.n_seeds)
-        print(
-            f"{args.case}, {args.n_seeds} seeds, known reality, t-interval: expected "
-            f"coverage {np.round(expected, 4)} (mean {expected.mean():.4f}); "
-            f"share of the one-draw fresh observations {np.round(drawn, 4)} "
-            f"(mean {drawn.mean():.4f})"
-        )
-        return
+    )
+    error, sd, z = np.median(out, axis=0)
+    print(
+        f"{case}, {n_seeds} seeds, emulator at theta* (medians over "
+        f"seeds, per response): rms error / noise sd {np.round(error, 4)}; "
+        f"rms plug-in sd / noise sd {np.round(sd, 4)}; rms error / sd "
+        f"{np.round(z, 3)}; largest rms error / noise sd "
+        f"{np.round(out[:, 0].max(axis=0), 3)}"
+    )
+
+
+def print_ideal(case, n_seeds):
+    """Print the ``--ideal`` reference (no fits)."""
+    expected, drawn = ideal_reference(case, n_seeds)
+    print(
+        f"{case}, {n_seeds} seeds, known reality, t-interval: expected "
+        f"coverage {np.round(expected, 4)} (mean {expected.mean():.4f}); "
+        f"share of the one-draw fresh observations {np.round(drawn, 4)} "
+        f"(mean {drawn.mean():.4f})"
+    )
+
+
+def print_default_and_capped(case, n_seeds, n_jobs, roughness_cap):
+    """Print the fits with the default prior and with a capped roughness."""
     settings = {
         "default": None,
-        f"roughness <= {args.roughness_cap:g}": {
-            "roughness": (0.1, args.roughness_cap)
-        },
+        f"roughness <= {roughness_cap:g}": {"roughness": (0.1, roughness_cap)},
     }
     for label, prior in settings.items():
-        records = Parallel(n_jobs=args.n_jobs)(
-            delayed(run_replicate)(args.case, seed, prior)
-            for seed in range(args.n_seeds)
+        records = Parallel(n_jobs=n_jobs)(
+            delayed(run_replicate)(case, seed, prior) for seed in range(n_seeds)
         )
         print(summary_line(label, records))
     t = {nu: round(1 - 2 * stats.t.sf(Z_LEVEL, nu), 4) for nu in (15, 20, 25)}
     print(f"P(|t_nu| <= {Z_LEVEL:.2f}) for nu = 15, 20, 25: {t}")
+
+
+def main(argv=None):
+    args = _parser().parse_args(argv)
+    if args.pure_noise:
+        pure_noise(args.n_seeds, args.n_jobs)
+    elif args.emulator:
+        print_emulator(args.case, args.n_seeds, args.n_jobs)
+    elif args.ideal:
+        print_ideal(args.case, args.n_seeds)
+    else:
+        print_default_and_capped(
+            args.case, args.n_seeds, args.n_jobs, args.roughness_cap
+        )
 
 
 if __name__ == "__main__":

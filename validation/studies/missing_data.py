@@ -1,9 +1,10 @@
 """Field data with gaps: readings removed at random, the calibration with the rest.
 
-For each seed of a validity case (``benchmarks/_validity_cases.py``) the
-calibrator is fitted twice with the defaults: on the complete field data,
-and with a share of the entries of ``y`` (``--fraction``, 10 % by default)
-set to NaN at random, never a whole response. Printed per case:
+For each seed of a case of the validity suite
+(:func:`validation.suite.registry`) the calibrator is fitted twice with
+the defaults: on the complete field data, and with a share of the entries
+of ``y`` (``--fraction``, 10 % by default) set to NaN at random, never a
+whole response. Printed per case:
 
 * how often the gapped posterior mean of each parameter lies inside the
   complete data's 95 % interval (the gaps cost information, they must not
@@ -15,28 +16,23 @@ set to NaN at random, never a whole response. Printed per case:
 
 Usage::
 
-    python benchmarks/missing_data.py --cases a1,b1 --n-seeds 40 --n-jobs 2
+    python -m validation.studies.missing_data --cases a1,b1 --n-seeds 40 --n-jobs 2
 
-``tests/calibration/test_missing_data.py`` runs a fixed-seed subset.
+``tests/validation/test_missing_data.py`` runs a fixed-seed subset; the
+results are in ``docs/monitoring_data.rst``.
 """
 
 import argparse
-import sys
 import time
 import warnings
-from pathlib import Path
 
 import numpy as np
 import threadpoolctl
 from joblib import Parallel, delayed
 
-HERE = Path(__file__).resolve().parent
-if str(HERE) not in sys.path:
-    sys.path.insert(0, str(HERE))
-
-from validity import LEVEL, Z_LEVEL, cases, rms, wilson_interval  # noqa: E402
-
-from skmba import ModularBayesCalibrator  # noqa: E402
+from skmba import ModularBayesCalibrator
+from validation.statistics import LEVEL, Z_LEVEL, rms, wilson_interval
+from validation.suite import registry
 
 FRACTION = 0.1
 
@@ -67,7 +63,7 @@ def _fit(case, y, seed):
 
 def run_replicate(name, seed, fraction=FRACTION):
     """Fit one seed of case ``name`` complete and with gaps; the scores."""
-    case = cases()[name].build(seed)
+    case = registry()[name].build(seed)
     y = np.asarray(case.y, dtype=float).reshape(len(case.X), -1)
     rng = np.random.default_rng([int(seed), 2027])
     gapped, mask = with_gaps(y, fraction, rng)
@@ -146,6 +142,7 @@ def run(names, n_seeds, n_jobs=1, fraction=FRACTION):
 
 def main(argv=None):
     parser = argparse.ArgumentParser(
+        prog="python -m validation.studies.missing_data",
         description=__doc__.split("\n\n")[0],
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )

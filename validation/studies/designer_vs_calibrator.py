@@ -12,7 +12,7 @@ same module-2 treatment, the default (``discrepancy_uncertainty=
 2. per seed, E* from its prior and field data drawn from the priors the
    designer assumes, the calibrator's default hyperprior of the
    discrepancy and the noise (one discrepancy function and the noise drawn
-   as in the SBC cases of ``_sbc_cases.py``), the model being the
+   as in the SBC cases of :mod:`validation.sbc_cases`), the model being the
    fixed-support beam itself;
 3. for each of the 7 subsets, ``ModularBayesCalibrator()`` on those
    responses: its posterior variance of E, whether its 95 % interval
@@ -33,31 +33,29 @@ nothing, so the mean variance converges slowly).
 
 Usage::
 
-    python benchmarks/designer_vs_calibrator.py --n-seeds 30 --n-jobs 2
+    python -m validation.studies.designer_vs_calibrator --n-seeds 30 --n-jobs 2
+
+The results (100 seeds) are in ``docs/validity.rst`` ("The designer against
+the calibrator").
 """
 
 from __future__ import annotations
 
 import argparse
 import itertools
-import sys
 import time
 import warnings
-from pathlib import Path
 
 import numpy as np
 import threadpoolctl
 from joblib import Parallel, delayed
 from scipy import stats
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from _sbc_cases import draw_field_data
-from _validity_cases import CANTILEVER_X_BOUNDS
-from validity import rms, wilson_interval
-
 from skmba import ModularBayesCalibrator, PreposteriorDesigner
 from skmba.datasets import make_cantilever
+from validation.cases import CANTILEVER_X_BOUNDS
+from validation.sbc_cases import draw_field_data
+from validation.statistics import rms, wilson_interval
 
 RESPONSES = ("tip_displacement", "energy", "tip_rotation")
 LETTERS = "ABC"
@@ -210,7 +208,10 @@ def table(records, designed, n_seeds):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(
+        prog="python -m validation.studies.designer_vs_calibrator",
+        description=__doc__.splitlines()[0],
+    )
     parser.add_argument("--n-seeds", type=int, default=30)
     parser.add_argument("--n-mc", type=int, default=100)
     parser.add_argument("--n-jobs", type=int, default=1)

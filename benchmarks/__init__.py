@@ -1,0 +1,9 @@
+"""Timings and accuracy checks of skmba against stated targets (not shipped).
+
+Each ``bench_*`` module is a script: ``python benchmarks/bench_gp.py``,
+``bench_calibration.py``, ``bench_sensor_design.py``, ``bench_threads.py``;
+``bench_peers`` (against surmise) imports ``bench_calibration`` and runs as
+a module from the repository root, ``python -m benchmarks.bench_peers``.
+The validity suite and its studies are in ``validation/``
+(``python -m validation --help``).
+"""

@@ -1,0 +1,20 @@
+"""Studies of one question each, on the cases of the validity suite.
+
+Each module is a script, ``python -m validation.studies.<name> --help``:
+
+- ``missing_data``: readings removed at random from the field data; does
+  theta stay, are the removed readings covered? (``docs/monitoring_data.rst``)
+- ``designer_vs_calibrator``: does ``PreposteriorDesigner`` predict the
+  posterior variance the calibrator gets? (``docs/validity.rst``,
+  ``docs/sensor_design.rst``)
+- ``reference_sd``: the posterior sd with the defaults over that of a
+  discrepancy-free fit on the same data;
+- ``spike_probe``: what a prior mass on "no discrepancy" would do;
+- ``new_observation_noise``: why new observations are covered a little
+  under 95 % (the noise, the emulator, the ideal reference).
+
+They take their cases from :func:`validation.suite.registry` (or
+:mod:`validation.cases`) and their statistics from
+:mod:`validation.statistics`; their results are quoted in
+``docs/validity.rst`` unless said otherwise.
+"""
