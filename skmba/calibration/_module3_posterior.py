@@ -58,7 +58,8 @@ class LogPosterior:
     Parameters
     ----------
     prior : skmba prior object
-    model : GlobalModel
+    model : ModelMixture
+        The global model over module 2's draws (one draw for the plug-in).
     scaler : Standardizer
     theta_sim : ndarray of shape (N, r)
         The simulated parameters (user units), the scale of ``u``.
@@ -212,8 +213,7 @@ class _ChainTarget:
 
     def __init__(self, log_posterior, joint=False):
         self.log_posterior = log_posterior.with_own_cache()
-        models = getattr(log_posterior.model, "models", None)
-        self.n_labels = len(models) if joint and models is not None else 1
+        self.n_labels = len(log_posterior.model.models) if joint else 1
 
     def __call__(self, u):
         return self.log_posterior.log_density_u(u)
@@ -475,8 +475,7 @@ def _chain_starts(log_posterior, n_chains, rng, earlier=None):
         U = log_posterior.to_u(np.asarray(earlier, dtype=float))
         mode, cov = U.mean(axis=0), np.atleast_2d(np.cov(U, rowvar=False))
     else:
-        base = getattr(log_posterior.model, "base", None)
-        search = log_posterior if base is None else log_posterior.with_model(base)
+        search = log_posterior.with_model(log_posterior.model.base)
         candidates = search.prior.rvs(50 * n_chains, random_state=rng)
         logp = search.log_density_u_batch(search.to_u(candidates))
         order = np.argsort(logp)[::-1][:n_chains]
@@ -513,19 +512,18 @@ _IDLE_CHECK_WEIGHT = 1e-6
 def _without_idle_draws(log_posterior, mode, cov, starts):
     """The log posterior over the module-2 draws that matter near the mode.
 
-    Over a mixture of module-2 draws, most of the cost per theta is one factorisation
-    per draw, and draws whose weight ``p(phi_k | theta, data)`` is negligible around the
-    posterior (typically the draws of the prior itself, which the defensive proposal
-    adds) change nothing. They are left out when their weight stays below
-    :data:`~skmba.calibration._module3_mixture.IDLE_WEIGHT` at the mode, at the chains'
-    starts and three Laplace standard deviations from the mode along each principal
-    axis. Returns the log posterior for the chains and the indices of the draws kept
-    (None: ``log_posterior`` itself, when the model is not a mixture or every draw is
-    kept).
+    Over a mixture of module-2 draws, most of the cost per theta is one
+    factorisation per draw, and draws whose weight ``p(phi_k | theta, data)``
+    is negligible around the posterior (typically the draws of the prior
+    itself, which the defensive proposal adds) change nothing. They are left
+    out when their weight stays below
+    :data:`~skmba.calibration._module3_mixture.IDLE_WEIGHT` at the mode, at
+    the chains' starts and three Laplace standard deviations from the mode
+    along each principal axis. Returns the log posterior for the chains and
+    the indices of the draws kept (None: ``log_posterior`` itself, when every
+    draw is kept, as the plug-in's one draw always is).
     """
     model = log_posterior.model
-    if not hasattr(model, "restricted"):
-        return log_posterior, None
     values, vectors = np.linalg.eigh(cov)
     axes = (3.0 * np.sqrt(np.clip(values, 0.0, None)) * vectors).T
     points = np.vstack([mode, starts, mode + axes, mode - axes])

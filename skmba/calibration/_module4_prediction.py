@@ -56,7 +56,7 @@ class PredictionRule:
 
     thetas: np.ndarray
     weights: np.ndarray
-    draws: np.ndarray | None = None  # module-2 draw per theta (a ModelMixture)
+    draws: np.ndarray | None = None  # module-2 draw per theta (None: the mode)
 
     @classmethod
     def equal_weights(cls, samples, n_draws=_N_PREDICT_DRAWS):
@@ -99,7 +99,7 @@ def prediction_rule(
         rule = PredictionRule.quadrature(log_posterior, posterior.interval)
     else:
         rule = PredictionRule.equal_weights(posterior.samples)
-    if not hasattr(mixture, "draw_weights") or not with_draws:
+    if not with_draws:
         return rule
     scaler = log_posterior.scaler
     given = _draw_weights(mixture, scaler.theta(rule.thetas), n_jobs)
@@ -213,7 +213,9 @@ def predict_component(model, rule, Xs, component, *, return_std, n_jobs=None):
 
     Parameters
     ----------
-    model : GlobalModel
+    model : ModelMixture
+        The global model over module 2's draws; ``rule.draws`` picks one
+        per theta.
     rule : PredictionRule
         Its ``thetas`` already standardised.
     Xs : ndarray of shape (s, d)
@@ -237,8 +239,8 @@ def predict_component(model, rule, Xs, component, *, return_std, n_jobs=None):
             model, rule, Xs, "reality", return_std=return_std, n_jobs=n_jobs
         )
         return mean, None if var is None else var + model.predictive_noise
-    if rule.draws is None:
-        models = [model] * len(thetas)
+    if rule.draws is None:  # a rule without draws: the module-2 mode
+        models = [model.base] * len(thetas)
     else:
         models = [model.models[k] for k in rule.draws]
     s, q, n, N = len(Xs), model.q, model.n, model.N
