@@ -7,10 +7,9 @@ decides how many BLAS threads it may use from two facts:
   thread only adds synchronisation (and numpy and scipy each bring their
   own OpenBLAS pool, whose idle threads spin while the other works), so such
   work runs on one thread. It is also what makes results bit-identical for
-  any ``n_jobs``: OpenBLAS's Cholesky factor of a larger matrix changes in
-  its last bits with the number of threads (measured here at order 400, not
-  at 100), and a Metropolis-Hastings chain or an optimiser turns last bits
-  into another path.
+  any ``n_jobs``: the last bits of a larger factorisation change with the
+  number of threads, and a Metropolis-Hastings chain or an optimiser turns
+  last bits into another path.
 * **how many tasks run at once.** Work in the calling process uses the
   threads the process started with (all cores unless the user, or joblib's
   loky worker, set ``OMP_NUM_THREADS``/``OPENBLAS_NUM_THREADS``); a task run
@@ -18,7 +17,7 @@ decides how many BLAS threads it may use from two facts:
   them, so that workers x threads does not oversubscribe the machine.
 
 Nothing here limits threads globally: the limit holds inside the ``with``
-block only.
+block only. Measurements: docs/internals.rst, section skmba._core.threads.
 
 Examples
 --------
@@ -37,16 +36,8 @@ from threadpoolctl import threadpool_info, threadpool_limits
 
 from skmba._core.linalg import n_workers
 
-#: Matrices of lower order than this are handled on one BLAS thread.
-#: Measured on two cores (``benchmarks/bench_threads.py``, repeated runs):
-#: a Cholesky factorisation, a triangular solve with 8 right-hand sides and
-#: their product gain 1.5x from a second thread at order 1000-4000 and
-#: anything from 0.4x to 2.9x at 200-600 (OpenBLAS's threading jumps
-#: between runs there); one MultiResponseGP log-likelihood with its
-#: gradient, where elementwise work weighs as much as the factorisation,
-#: loses 2-17 % at N = 1000-2000 and gains 1.2x at 3000, 1.3-1.7x at 4000;
-#: a noisy fit at N = 400 with every thread on is 10-12x slower (numpy's
-#: and scipy's OpenBLAS pools spin against each other).
+#: Matrices of lower order than this are handled on one BLAS thread (the
+#: timings behind it: docs/internals.rst, section skmba._core.threads).
 SMALL_ORDER = 2500
 
 

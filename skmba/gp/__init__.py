@@ -6,7 +6,8 @@ what a user searches for. Its files are private and may move:
 =====================  ===================================================
 file                   holds
 =====================  ===================================================
-``_estimator.py``      :class:`MultiResponseGP`, the estimator
+``_estimator.py``      :class:`MultiResponseGP`, the estimator, and its fit
+``_predict.py``        its ``predict`` and ``sample_y``
 ``_likelihood.py``     the noise-free and noisy likelihoods and gradients
 ``_search.py``         the maximum-likelihood search, nugget escalation
 ``_noisy.py``          the fit with per-response noise

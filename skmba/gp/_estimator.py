@@ -1,7 +1,10 @@
 """Multi-response Gaussian process regression (thesis chapter 3).
 
-:class:`MultiResponseGP` is the estimator; the likelihood and predictive
-moments are in :mod:`skmba.gp._likelihood`, the hyperparameter search and the
+:class:`MultiResponseGP` is the estimator: its parameters, ``fit`` and
+``log_marginal_likelihood``; :func:`default_kernel` is its kernel when none
+is given (the calibration modules use it too). ``predict`` and ``sample_y``
+come from :mod:`skmba.gp._predict`; the likelihood and predictive moments
+are in :mod:`skmba.gp._likelihood`, the hyperparameter search and the
 nugget escalation in :mod:`skmba.gp._search`, the noisy fit in
 :mod:`skmba.gp._noisy` and the checks of the training data in
 :mod:`skmba.gp._checks`.
@@ -24,7 +27,6 @@ from sklearn.base import BaseEstimator, MultiOutputMixin, RegressorMixin, clone
 from sklearn.gaussian_process.kernels import Kernel
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from skmba._core.linalg import check_memory
 from skmba._core.regression import REGRESSIONS, n_regression_terms, regression_basis
 from skmba._core.threads import blas_threads
 from skmba._core.validation import (
@@ -34,7 +36,6 @@ from skmba._core.validation import (
     InstanceOf,
     Options,
     Real,
-    random_state_instance,
     validate_parameter_table,
 )
 from skmba._core.warn import warn
@@ -48,6 +49,7 @@ from skmba.gp._checks import (
 )
 from skmba.gp._likelihood import NoiseFreeLikelihood, NoisyLikelihood
 from skmba.gp._noisy import fit_noisy, noise_bounds
+from skmba.gp._predict import PredictionMixin
 from skmba.gp._search import (
     LikelihoodProblem,
     correlation,
@@ -56,23 +58,14 @@ from skmba.gp._search import (
 )
 from skmba.kernels import Gauss, check_correlation
 
-# Mean and standard deviation are predicted in batches of points whose
-# cross-correlations with the training points (and the few arrays of that
-# size the prediction makes: _PREDICT_ARRAYS in all) take at most this many
-# bytes.
-_PREDICT_BATCH_BYTES = 2**28
-_PREDICT_ARRAYS = 6
-
 
 def default_kernel(X):
     """Anisotropic Gauss correlation scaled to the spread of ``X``.
 
     The starting roughness is ``10 / range_j^2`` per input (correlation
     ``exp(-1)`` across a third of the range), with bounds ``1e-4 /
-    range_j^2`` to ``1e4 / range_j^2``. A smoother start (``exp(-1)``
-    across the full range) leaves the likelihood search on a spurious
-    optimum at the lower bound for functions that oscillate over the range
-    (on ``sin(2 pi theta x)``, ``theta`` in [2, 4], in 6 seeds of 6).
+    range_j^2`` to ``1e4 / range_j^2``. Measurements and rejected variants:
+    docs/internals.rst, section skmba.gp._estimator.
 
     Examples
     --------
@@ -89,7 +82,7 @@ def default_kernel(X):
     )
 
 
-class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
+class MultiResponseGP(PredictionMixin, MultiOutputMixin, RegressorMixin, BaseEstimator):
     """Multi-response Gaussian process with covariance ``Sigma2 ⊗ R``.
 
     The ``q`` responses share one correlation ``R(omega)`` over the inputs and
@@ -190,12 +183,16 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
     active_responses_ : ndarray of bool of shape (q,)
         Which responses vary, and so take part in the likelihood; the others
         are constant and predicted exactly.
-    likelihood_ : NoiseFreeLikelihood, NoisyLikelihood or None
-        The factorised likelihood (:mod:`skmba.gp._likelihood`) at the fitted
-        hyperparameters, in internal units (the active responses,
-        standardised): the Cholesky or eigen factors, ``beta``, ``sigma2``
-        and the predictive equations that the calibration modules reuse.
-        None when every response is constant.
+    likelihood_ : object or None
+        The factorised likelihood at the fitted hyperparameters, in internal
+        units (the active responses, standardised), which the calibration
+        modules reuse. It offers ``log_likelihood``, ``beta`` and
+        ``sigma2``; its factors (without noise the Cholesky factor ``C`` of
+        the correlation matrix and the generalised least squares ``gls``,
+        with noise the Kronecker eigendecomposition ``ke``); and the
+        predictive equations ``predict(r_cross, h_star, r_star, full_cov)``
+        and ``expand_covariance(factors)``. None when every response is
+        constant.
     X_train_ : ndarray of shape (N, d)
     n_features_in_ : int
     feature_names_in_ : ndarray of str
@@ -289,8 +286,9 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
         ------
         ValueError
             On invalid data or parameters (see :ref:`gp-input-checks`); a
-            :class:`~skmba._core.linalg.FactorizationError` (a ``ValueError``) when
-            a matrix cannot be factored even after the nugget escalation.
+            ``FactorizationError`` (a ``numpy.linalg.LinAlgError``, so a
+            ``ValueError``) when a matrix cannot be factored even after the
+            nugget escalation.
         TypeError
             On parameters of the wrong type.
         MemoryError
@@ -320,9 +318,9 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
         :meth:`_fit_reporting` share it.
         """
         # The package's thread policy (skmba._core.threads): one BLAS thread for
-        # smaller designs (a second pool's spinning threads slow the noisy
-        # q=16 fit at N=400 10-fold), all the process's threads from
-        # SMALL_ORDER samples on, where the N x N factorisations dominate.
+        # smaller designs, all the process's threads from SMALL_ORDER samples
+        # on, where the N x N factorisations dominate (measurements:
+        # docs/internals.rst, section skmba._core.threads).
         with blas_threads(len(X) if hasattr(X, "__len__") else 0):
             try:
                 yield
@@ -339,15 +337,8 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
             self._parameter_table, self.get_params(deep=False), type(self).__name__
         )
         X, Y = self._validate_training_data(X, y)
-        n, d = X.shape
-        check_magnitudes(X, Y)
-        p = n_regression_terms(self.regression, d)
-        check_sample_size(n, d, p, self.regression)
-        H = regression_basis(X, self.regression)
-        check_rows(X, Y, H, self.regression, self.noise)
-        kernel = default_kernel(X) if self.kernel is None else clone(self.kernel)
-        check_correlation(kernel, X)
-        check_fit_memory(kernel, n, self.noise)
+        n = X.shape[0]
+        kernel, H, p = self._check_design(X, Y)
         self.X_train_ = X
         self._H = H
         self.nugget_ = float(self.alpha)
@@ -360,43 +351,69 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
             check_covariance_size(n, q, p, self.regression)
 
         if q == 0:
-            warn(
-                "All responses are constant: the GP predicts them exactly and "
-                "the kernel is not fitted.",
-                UserWarning,
-            )
-            self.kernel_ = kernel
-            self.likelihood_ = None
-            self.log_marginal_likelihood_value_ = np.inf
+            self._fit_constant(kernel)
         else:
-            problem = LikelihoodProblem(
-                X,
-                H,
-                Ya,
-                nugget=self.nugget_,
-                alpha=self.alpha,
-                ridge=self._ridge,
-                optimizer=self.optimizer,
-                n_restarts=self.n_restarts_optimizer,
-                random_state=self.random_state,
-                on_start=on_start,
-            )
-            fit_path = fit_noisy if self.noise else fit_noise_free
-            kernel, problem = subsample_warm_start(problem, kernel, fit_path)
-            self.kernel_, self.likelihood_ = fit_path(problem, kernel)
-            self.nugget_ = problem.nugget
-            noise = None
-            if self.noise:  # in the units of y
-                variance = self._y_std[self.active_responses_] ** 2
-                noise = (
-                    np.flatnonzero(self.active_responses_),
-                    self.likelihood_.ke.lam * variance,
-                    noise_bounds(Ya) * variance[:, None],
-                )
-            searched = self.kernel_ if self.optimizer is not None else None
-            warn_at_bounds(searched, noise=noise)
+            self._fit_hyperparameters(X, H, Ya, kernel, on_start)
         self._set_user_attributes(Y.shape[1], p)
         return self
+
+    def _check_design(self, X, Y):
+        """The checks of the training data that come before any fitting.
+
+        Returns the kernel to fit (a clone of ``kernel``, or the default),
+        the regression matrix ``H`` and its number of terms ``p``.
+        """
+        n, d = X.shape
+        check_magnitudes(X, Y)
+        p = n_regression_terms(self.regression, d)
+        check_sample_size(n, d, p, self.regression)
+        H = regression_basis(X, self.regression)
+        check_rows(X, Y, H, self.regression, self.noise)
+        kernel = default_kernel(X) if self.kernel is None else clone(self.kernel)
+        check_correlation(kernel, X)
+        check_fit_memory(kernel, n, self.noise)
+        return kernel, H, p
+
+    def _fit_constant(self, kernel):
+        """Every response is constant: nothing to fit, all predicted exactly."""
+        warn(
+            "All responses are constant: the GP predicts them exactly and "
+            "the kernel is not fitted.",
+            UserWarning,
+        )
+        self.kernel_ = kernel
+        self.likelihood_ = None
+        self.log_marginal_likelihood_value_ = np.inf
+
+    def _fit_hyperparameters(self, X, H, Ya, kernel, on_start):
+        """Maximise the likelihood of the standardised active responses
+        ``Ya``; warn when a hyperparameter ends on a bound of its search."""
+        problem = LikelihoodProblem(
+            X,
+            H,
+            Ya,
+            nugget=self.nugget_,
+            alpha=self.alpha,
+            ridge=self._ridge,
+            optimizer=self.optimizer,
+            n_restarts=self.n_restarts_optimizer,
+            random_state=self.random_state,
+            on_start=on_start,
+        )
+        fit_path = fit_noisy if self.noise else fit_noise_free
+        kernel, problem = subsample_warm_start(problem, kernel, fit_path)
+        self.kernel_, self.likelihood_ = fit_path(problem, kernel)
+        self.nugget_ = problem.nugget
+        noise = None
+        if self.noise:  # in the units of y
+            variance = self._y_std[self.active_responses_] ** 2
+            noise = (
+                np.flatnonzero(self.active_responses_),
+                self.likelihood_.ke.lam * variance,
+                noise_bounds(Ya) * variance[:, None],
+            )
+        searched = self.kernel_ if self.optimizer is not None else None
+        warn_at_bounds(searched, noise=noise)
 
     def _validate_training_data(self, X, y):
         """sklearn's checks; X as float and y as an (n, q) float array."""
@@ -461,169 +478,6 @@ class MultiResponseGP(MultiOutputMixin, RegressorMixin, BaseEstimator):
             if state is not None:
                 noise[active] = state.ke.lam * std[active] ** 2
             self.noise_ = noise
-
-    # -------------------------------------------------------------- predict
-    def _predict_internal(self, X, full_cov, n_copies=3):
-        """Mean (s, q) and variance (s, q) or covariance (s, q, s, q), user units.
-
-        ``n_copies`` is the number of (s q) x (s q) arrays the caller keeps
-        alive at once with the joint covariance (memory check).
-        """
-        check_is_fitted(self)
-        X = validate_data(self, X, reset=False).astype(float, copy=False)
-        s = len(X)
-        q = self.active_responses_.size
-        if full_cov:
-            check_memory(
-                8.0 * n_copies * (s * q) ** 2,
-                f"The joint predictive covariance of {s} points x {q} responses "
-                f"({s * q} x {s * q} entries, {n_copies} arrays)",
-                "Request it for fewer points at a time, or use return_std=True "
-                "for the marginal standard deviations (computed in batches).",
-            )
-            return self._predict_batch(X, True)
-        n_train = len(self.X_train_)
-        batch = max(1, int(_PREDICT_BATCH_BYTES // (8 * n_train * _PREDICT_ARRAYS)))
-        if s <= batch:
-            mean, var = self._predict_batch(X, False)
-        else:
-            parts = [
-                self._predict_batch(X[i : i + batch], False) for i in range(0, s, batch)
-            ]
-            mean = np.concatenate([m for m, _ in parts])
-            var = np.concatenate([v for _, v in parts])
-        return mean, self._clip_variance(var)
-
-    def _predict_batch(self, X, full_cov):
-        """Moments at validated points ``X`` (one batch)."""
-        s = len(X)
-        q = self.active_responses_.size
-        mean = np.tile(self._constant, (s, 1))
-        cov = np.zeros((s, q, s, q)) if full_cov else np.zeros((s, q))
-        state = self.likelihood_
-        if state is not None:
-            idx = np.flatnonzero(self.active_responses_)
-            std = self._y_std[idx]
-            r_cross = self.kernel_(self.X_train_, X)
-            r_star = self.kernel_(X) if full_cov else self.kernel_.diag(X)
-            h_star = regression_basis(X, self.regression)
-            m, factors = state.predict(r_cross, h_star, r_star, full_cov)
-            mean[:, idx] = m * std + self._y_mean[idx]
-            c = state.expand_covariance(factors)
-            if full_cov:
-                cov[np.ix_(range(s), idx, range(s), idx)] = (
-                    c * np.einsum("k,l->kl", std, std)[None, :, None, :]
-                )
-            else:
-                cov[:, idx] = c * std**2
-        return mean, cov
-
-    @staticmethod
-    def _clip_variance(var):
-        negative = var < 0
-        if np.any(var < -1e-8 * max(float(np.abs(var).max()), 1e-300)):
-            warn(
-                "Predicted variances smaller than 0 were set to 0: the "
-                "correlation matrix is ill-conditioned. Consider a larger alpha.",
-                UserWarning,
-            )
-        var[negative] = 0.0
-        return var
-
-    def _shape_output(self, array):
-        """Drop the response axis when y was 1-D."""
-        if self._y_ndim == 1:
-            return array[:, 0] if array.ndim == 2 else array[:, 0, :, 0]
-        return array
-
-    def predict(self, X, return_std=False, return_cov=False):
-        """Predict the latent process with the universal-kriging variance.
-
-        Parameters
-        ----------
-        X : array-like of shape (n_samples, n_features)
-        return_std : bool, default=False
-            Also return the predictive standard deviation: the
-            universal-kriging one of the latent (noise-free) process,
-            including the uncertainty of ``beta`` (Eqs. 3.33 and 3.40). Add
-            ``noise_`` to the variance to predict a new noisy measurement.
-        return_cov : bool, default=False
-            Also return the joint predictive covariance. Its layout: for 1-D
-            training ``y``, shape (n_samples, n_samples); for 2-D ``y``, shape
-            (n_samples, q, n_samples, q) with ``cov[a, k, b, l] =
-            Cov(y_k(x_a), y_l(x_b))`` (cross-response covariances included);
-            ``cov.reshape(n_samples * q, -1)`` orders points slowest.
-
-        Returns
-        -------
-        y_mean : ndarray of shape (n_samples,) or (n_samples, q)
-        y_std : ndarray, same shape as ``y_mean``
-            Only when ``return_std`` is True.
-        y_cov : ndarray
-            Only when ``return_cov`` is True.
-
-        Raises
-        ------
-        MemoryError
-            With ``return_cov=True``, before allocating, when the
-            ``(n_samples q)^2`` covariance (and its temporaries) does not fit
-            in the available memory. Means and standard deviations are
-            computed in batches and need no such check.
-        """
-        if return_std and return_cov:
-            raise RuntimeError(
-                "At most one of return_std or return_cov can be requested."
-            )
-        mean, var = self._predict_internal(X, full_cov=return_cov)
-        mean = self._shape_output(mean)
-        if return_std:
-            return mean, self._shape_output(np.sqrt(var))
-        if return_cov:
-            return mean, self._shape_output(var)
-        return mean
-
-    def sample_y(self, X, n_samples=1, random_state=0):
-        """Draw joint samples of the latent process at ``X``.
-
-        Parameters
-        ----------
-        X : array-like of shape (n_points, n_features)
-        n_samples : int, default=1
-        random_state : int, RandomState, Generator, SeedSequence or None, default=0
-            Seeds the draws.
-
-        Returns
-        -------
-        y_samples : ndarray of shape (n_points, n_samples) or (n_points, q, n_samples)
-            Samples drawn from the joint predictive distribution, including
-            the correlation between responses.
-
-        Raises
-        ------
-        ValueError
-            When ``n_samples`` is not a positive integer.
-        MemoryError
-            Before allocating, when the ``(n_points q)^2`` joint covariance,
-            its eigenvectors and their scaled copy do not fit in the
-            available memory.
-        """
-        if not Count().accepts(n_samples):
-            raise ValueError(
-                "n_samples must be a positive integer (the number of joint "
-                f"draws), got {n_samples!r}; e.g. n_samples=1."
-            )
-        rng = random_state_instance(random_state)
-        # covariance, its eigenvectors and their scaled copy
-        mean, cov = self._predict_internal(X, full_cov=True, n_copies=4)
-        s, q = mean.shape
-        cov = cov.reshape(s * q, s * q)
-        # eigh tolerates the positive semi-definite covariances of noise-free
-        # GPs at training points, where a Cholesky would fail.
-        values, vectors = np.linalg.eigh(0.5 * (cov + cov.T))
-        root = vectors * np.sqrt(np.clip(values, 0.0, None))
-        draws = mean.ravel()[:, None] + root @ rng.standard_normal((s * q, n_samples))
-        draws = draws.reshape(s, q, n_samples)
-        return draws[:, 0, :] if self._y_ndim == 1 else draws
 
     def log_marginal_likelihood(
         self, theta=None, eval_gradient=False, clone_kernel=True

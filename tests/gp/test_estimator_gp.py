@@ -1026,7 +1026,7 @@ def test_joint_covariance_checks_memory_and_std_is_batched(monkeypatch):
     with pytest.raises(MemoryError, match=r"fewer points at a time.*return_std=True"):
         gp.sample_y(X_new, n_samples=2)
     # means and standard deviations need no (s q)^2 array, and come in batches
-    monkeypatch.setattr(skmba.gp._estimator, "_PREDICT_BATCH_BYTES", 8 * 12 * 6 * 7)
+    monkeypatch.setattr(skmba.gp._predict, "PREDICT_BATCH_BYTES", 8 * 12 * 6 * 7)
     mean_batched, std_batched = gp.predict(X_new, return_std=True)  # 7 per batch
     np.testing.assert_allclose(mean_batched, mean, rtol=1e-12, atol=1e-14)
     # atol: near training points the variance 1 - r'R^-1 r + ... cancels, so
@@ -1049,8 +1049,8 @@ def test_batched_prediction_equals_the_unbatched_one(monkeypatch):
         assert np.linalg.cond(kernel(X)) < 1e4
         mean, std = gp.predict(X_new, return_std=True)  # one batch
         for batch in (1, 5):
-            budget = 8 * len(X) * skmba.gp._estimator._PREDICT_ARRAYS * batch
-            monkeypatch.setattr(skmba.gp._estimator, "_PREDICT_BATCH_BYTES", budget)
+            budget = 8 * len(X) * skmba.gp._predict.PREDICT_ARRAYS * batch
+            monkeypatch.setattr(skmba.gp._predict, "PREDICT_BATCH_BYTES", budget)
             got_mean, got_std = gp.predict(X_new, return_std=True)
             np.testing.assert_allclose(got_mean, mean, rtol=1e-12, atol=0)
             np.testing.assert_allclose(got_std, std, rtol=1e-12, atol=0)
