@@ -7,9 +7,12 @@ order, so that an option value leads to its file:
 file                               holds
 =================================  ========================================
 ``_estimator.py``                  :class:`ModularBayesCalibrator`
+``_settings.py``                   its parameter table and the frozen
+                                   settings built from ``get_params()``
 ``_pipeline.py``                   modules 1-3 run in order
-``_field_data.py``                 checks of the field data
-``_simulations.py``                the simulation runs and their checks
+``_field_data.py``                 checks of the field data, alone and
+                                   against the simulations
+``_simulations.py``                the simulation runs
 ``_module1_emulator.py``           module 1: the emulator, standardisation
 ``_module2_prior_integral.py``     module 2: the emulator integrated over
                                    the prior (``integration``)
@@ -17,8 +20,8 @@ file                               holds
                                    (``discrepancy_uncertainty="plug-in"``)
 ``_module2_posterior.py``          module 2's posterior draws
                                    (``discrepancy_uncertainty="propagate"``)
-``_module3_likelihood.py``         module 3: the global model (Eq. 4.30)
-``_module3_batch_likelihood.py``   Eq. 4.30 at many thetas at once
+``_module3_likelihood.py``         module 3: the global model (Eq. 4.30),
+                                   also for a stack of thetas at once
 ``_module3_mixture.py``            module 3 over module 2's draws
 ``_module3_posterior.py``          the posterior of theta (``sampler``)
 ``_module3_identifiability.py``    ``identifiability_`` and its warning

@@ -23,7 +23,7 @@ from scipy import special
 
 from skmba._core.linalg import FactorizationError, n_workers
 from skmba._core.threads import BlasTask
-from skmba.calibration._module3_batch_likelihood import stack_chunks
+from skmba.calibration._module3_likelihood import stack_chunks
 
 #: A module-2 draw whose weight ``p(phi_k | theta, data)`` stays below this
 #: around the posterior of theta is left out of the sampler's mixture
@@ -94,7 +94,7 @@ class ModelMixture:
         The emulator given the simulations is computed once per theta for
         all draws, and the Schur complements of every theta and draw are
         factored as one stack
-        (:func:`~skmba.calibration._module3_batch_likelihood.schur_log_likelihoods`).
+        (:func:`~skmba.calibration._module3_likelihood.schur_log_likelihoods`).
 
         Raises
         ------

@@ -8,7 +8,7 @@ subset of every Monte Carlo replicate at the same field inputs ``X_e``. What dep
 :class:`FieldDesignEmulator` computes it once per ``theta`` for all subsets, and the
 simulation block of a subset once per subset; :class:`SubsetLikelihood` then factors the
 Schur complement of each ``theta`` in one batched Cholesky
-(:func:`~skmba.calibration._module3_batch_likelihood.schur_log_likelihoods`).
+(:func:`~skmba.calibration._module3_likelihood.schur_log_likelihoods`).
 
 Examples
 --------
@@ -27,7 +27,7 @@ import numpy as np
 from scipy import linalg
 
 from skmba._core.linalg import cholesky, log_det_from_cholesky
-from skmba.calibration._module3_batch_likelihood import schur_log_likelihoods
+from skmba.calibration._module3_likelihood import schur_log_likelihoods
 
 
 class FieldDesignEmulator:
@@ -103,7 +103,7 @@ class SubsetLikelihood:
     subset. The Schur complement ``S(theta)`` of each ``theta`` is factored in one
     batched Cholesky and the regression coefficients are integrated out through one
     batched QR
-    (:func:`~skmba.calibration._module3_batch_likelihood.schur_log_likelihoods`, as for
+    (:func:`~skmba.calibration._module3_likelihood.schur_log_likelihoods`, as for
     the calibrator).
 
     Parameters

@@ -23,7 +23,7 @@ node then costs one ``n x n`` factorisation and products with the
 the designer took 3.6 times less time than with every subset factored on
 its own (``benchmarks/bench_sensor_design.py``). The regression is
 integrated out per subset by the QR shared with the calibrator
-(:func:`~skmba.calibration._module3_batch_likelihood.regression_log_likelihoods`).
+(:func:`~skmba.calibration._module3_likelihood.regression_log_likelihoods`).
 
 Examples
 --------
@@ -38,7 +38,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from skmba.calibration._module3_batch_likelihood import regression_log_likelihoods
+from skmba.calibration._module3_likelihood import regression_log_likelihoods
 
 
 class FieldTerms(NamedTuple):
@@ -120,7 +120,7 @@ def subset_tree_log_likelihoods(design, subsets, fields, H_d, pieces):
     ------
     FactorizationError
         When the regression is rank deficient (see
-        :func:`~skmba.calibration._module3_batch_likelihood.regression_log_likelihoods`).
+        :func:`~skmba.calibration._module3_likelihood.regression_log_likelihoods`).
     """
     T, H_me, M = pieces
     k, n = T.shape[:2]

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from skmba._core.linalg import FactorizationError
-from skmba.calibration._module3_batch_likelihood import (
+from skmba.calibration._module3_likelihood import (
     STACK_BYTES,
     schur_log_likelihoods,
     stack_chunks,
