@@ -7,6 +7,8 @@ calibrator's ``theta_chains_``; the files are private:
 file                   holds
 =====================  ===================================================
 ``_chain.py``          one adaptive Metropolis-Hastings chain
+``_proposals.py``      its independence and label proposals
+``_target.py``         the target's log density, checked per chain
 ``_run.py``            ``run_chains``: several chains in joblib workers
 ``_diagnostics.py``    split R-hat and bulk ESS (Vehtari et al. 2021)
 =====================  ===================================================

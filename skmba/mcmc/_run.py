@@ -8,8 +8,7 @@ convergence diagnostics of the draws are in :mod:`skmba.mcmc._diagnostics`.
 
 The chains' kernel (an adaptive random walk with, optionally, independence
 moves from a Student-t fitted to the burn-in, whose proposals a
-``log_density.batch`` method evaluates together) is described in
-:mod:`skmba.mcmc._chain`.
+``log_density.batch`` method evaluates together) is :mod:`skmba.mcmc._chain`.
 
 Examples
 --------
@@ -40,8 +39,9 @@ from scipy import linalg
 from skmba._core.progress import Progress, results_as_ready
 from skmba._core.threads import blas_threads
 from skmba._core.validation import check_count, seed_sequence
-from skmba.mcmc._chain import OPTIMAL_SCALE, Chain, evaluate
+from skmba.mcmc._chain import OPTIMAL_SCALE, Chain
 from skmba.mcmc._diagnostics import ess_bulk, split_rhat
+from skmba.mcmc._target import evaluate
 
 # With a progress bar, the chains run in about this many segments, after
 # each of which the parent process updates the bar (the draws do not depend
@@ -137,8 +137,8 @@ def run_chains(
     """Run adaptive Metropolis-Hastings chains in parallel.
 
     The proposals, their adaptation during burn-in and their freezing
-    afterwards are described in the docstring of
-    :mod:`skmba.mcmc._chain`.
+    afterwards are those of :mod:`skmba.mcmc._chain`, described in full in
+    docs/internals.rst, section skmba.mcmc._chain.
 
     Parameters
     ----------
@@ -218,11 +218,9 @@ default=None
         moments, instead of halfway through the burn-in; from there on the
         proposal is fitted to the burn-in as usual. A chain started near
         the target then mixes from its first steps, and a shorter burn-in
-        serves. The moments need only be roughly right: on a correlated
-        2-D Gaussian (4 chains of 2000 draws after 300), variances 10
-        times too small gave a bulk ESS above 3800, but 30 times too small
-        or 100 times too large left the chains unmixed (R-hat 1.15-1.19),
-        which the diagnostics report. A covariance that is not positive
+        serves. The moments need only be roughly right (how roughly:
+        docs/internals.rst, section skmba.mcmc._run); chains they leave
+        unmixed show in the diagnostics. A covariance that is not positive
         definite is not used (the moves then start halfway, as without).
 
     Returns
@@ -319,7 +317,14 @@ def _run_parallel(
                 moments=moments,
             )
         )
-    total = burn_in + n_samples
+    _advance_in_segments(densities, states, n_jobs, blas_order, progress)
+    return _stacked_result(states, n_samples, keep_log_density)
+
+
+def _advance_in_segments(densities, states, n_jobs, blas_order, progress):
+    """Run the chains ``states`` to their end, replacing each by the state
+    its last task returned; the bar moves as each segment returns."""
+    total = states[0].total
     segment = -(-total // _PROGRESS_SEGMENTS) if progress.enabled else total
     done = [0] * len(states)
     # The chains' limit held here too: a thread-based backend runs them in
@@ -343,6 +348,10 @@ def _run_parallel(
                 bar.update(state.steps - done[c])
                 _report_chain(progress, state, done[c])
                 done[c] = state.steps
+
+
+def _stacked_result(states, n_samples, keep_log_density):
+    """The :class:`ChainResult` of the finished chains ``states``."""
     return ChainResult(
         samples=np.stack([state.samples for state in states]),
         log_density=(
