@@ -33,6 +33,8 @@ no discrepancy, with a credible interval that ignores that the model is
 known to be wrong (Brynjarsdottir & O'Hagan, 2014, Inverse Problems 30).
 """
 
+from dataclasses import dataclass
+
 import numpy as np
 from scipy import linalg, optimize
 from sklearn.base import clone
@@ -55,7 +57,6 @@ from skmba._core.regression import regression_basis
 from skmba._core.validation import seed_sequence
 from skmba._core.warn import warn
 from skmba.gp._estimator import default_kernel
-from skmba.priors._table_6_2 import TABLE_6_2_RANGES
 
 DISCREPANCY_OPTIMIZERS = ("fmin_l_bfgs_b", "differential_evolution")
 _LOG_REL_NOISE = (np.log(1e-8), np.log(10.0))
@@ -63,90 +64,6 @@ _LOG_REL_NOISE = (np.log(1e-8), np.log(10.0))
 # each residual's standard deviation.
 _LOG_REL_SD = (np.log(1e-5), np.log(1e2))
 _CORR_FREE = (-1e2, 1e2)
-
-
-def check_interval(value, name, size, *, lower=None):
-    """``(lo, hi)`` of scalars or of arrays of length ``size``, checked.
-
-    Examples
-    --------
-    >>> check_interval((0.1, [1.0, 2.0]), "ranges", 2)
-    (array([0.1, 0.1]), array([1., 2.]))
-    """
-    try:
-        lo, hi = value
-        lo = np.broadcast_to(np.asarray(lo, dtype=float), (size,)).copy()
-        hi = np.broadcast_to(np.asarray(hi, dtype=float), (size,)).copy()
-    except (TypeError, ValueError):
-        raise ValueError(
-            f"{name} must be a pair (low, high) of numbers or of arrays of length "
-            f"{size}, got {value!r}."
-        ) from None
-    if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
-        raise ValueError(f"{name} must be finite, got {value!r}.")
-    if np.any(lo > hi):
-        raise ValueError(f"{name} needs low <= high, got {value!r}.")
-    if lower is not None and np.any(lo < lower):
-        raise ValueError(f"{name} must be >= {lower}, got {value!r}.")
-    return lo, hi
-
-
-def check_discrepancy_ranges(spec, d, q, name="discrepancy_prior"):
-    """The module-2 ranges of the discrepancy roughness and variance.
-
-    ``spec`` is None (thesis Table 6.2) or a dict with keys among
-    ``"roughness"`` and ``"variance"``: a pair ``(low, high)`` of scalars or
-    arrays (``d`` roughnesses, ``q`` variances), or None for no range (the
-    kernel's own bounds; the plain maximum-likelihood variance). Missing keys
-    take Table 6.2's values. Returns a dict of ``(low, high)`` arrays or None.
-
-    Examples
-    --------
-    >>> check_discrepancy_ranges({"roughness": None}, d=1, q=2)
-    {'roughness': None, 'variance': (array([0.01, 0.01]), array([20., 20.]))}
-    """
-    if spec is None:
-        spec = {}
-    if not isinstance(spec, dict):
-        raise TypeError(
-            f"{name} must be None or a dict with keys among "
-            f"{sorted(TABLE_6_2_RANGES)}, got {type(spec).__name__}."
-        )
-    unknown = set(spec) - set(TABLE_6_2_RANGES)
-    if unknown:
-        raise ValueError(
-            f"{name} has unknown keys {sorted(unknown)}; the calibrator bounds "
-            f"only {sorted(TABLE_6_2_RANGES)} (the discrepancy mean is estimated "
-            "by generalised least squares and its correlation freely)."
-        )
-    spec = {**TABLE_6_2_RANGES, **spec}
-    out = {}
-    for key, size, lower in (("roughness", d, None), ("variance", q, 0.0)):
-        if spec[key] is None:
-            out[key] = None
-            continue
-        out[key] = check_interval(spec[key], f"{name}[{key!r}]", size, lower=lower)
-    if out["roughness"] is not None and np.any(out["roughness"][0] <= 0):
-        raise ValueError(
-            f"{name}['roughness'] must be > 0, got {spec['roughness']!r}; use "
-            "None to keep the kernel's own roughness_bounds."
-        )
-    return out
-
-
-def ranges_text(ranges):
-    """The variance range of :func:`check_discrepancy_ranges`, for a log line.
-
-    Examples
-    --------
-    >>> ranges_text({"roughness": None, "variance": None})
-    'none'
-    """
-    variance = ranges["variance"]
-    if variance is None:
-        return "none"
-    lo, hi = (np.array2string(v, precision=3) for v in variance)
-    return f"{lo} to {hi}"
 
 
 def bound_roughness(kernel, low, high, name="discrepancy_prior"):
@@ -190,6 +107,36 @@ def bound_roughness(kernel, low, high, name="discrepancy_prior"):
     return clone(kernel).set_params(roughness=start, roughness_bounds=bounds)
 
 
+@dataclass(frozen=True)
+class DiscrepancyEstimate:
+    """Module 2's discrepancy and noise at one value of the hyperparameters.
+
+    Attributes
+    ----------
+    kernel_ : sklearn Kernel
+        The discrepancy correlation with its fitted hyperparameters.
+    sigma2 : ndarray of shape (q, q)
+        Discrepancy covariance between the responses.
+    noise : ndarray of shape (q,)
+        Noise variances.
+    beta : ndarray of shape (p, q)
+        Regression coefficients of the discrepancy's mean (GLS).
+    regression : str or None
+    log_likelihood : float
+        The (restricted) log likelihood there.
+    params : ndarray
+        The packed parameters (:meth:`DiscrepancyFit.pack`).
+    """
+
+    kernel_: object
+    sigma2: np.ndarray
+    noise: np.ndarray
+    beta: np.ndarray
+    regression: str | None
+    log_likelihood: float
+    params: np.ndarray
+
+
 class DiscrepancyFit:
     """Maximum-likelihood discrepancy GP and noise on top of a fixed covariance.
 
@@ -212,6 +159,20 @@ class DiscrepancyFit:
         held as an independent part of each response's discrepancy (see the
         module docstring). None means no floor and standard deviations up to
         100 times each column's of ``Y``: the plain maximum likelihood.
+    regression : str, default=None
+        The name of the regression of ``H`` (recorded in the estimate).
+    restricted : bool, default=False
+        The restricted (REML) likelihood instead of the plain one.
+    unit_scale : bool, default=False
+        Parameters in the units of ``Y`` (a prior is stated in them) rather
+        than relative to each column's spread.
+    fixed_noise : float, default=None
+        Hold the noise at this many times each response's variance.
+    log_noise_bounds : pair of float, default=None
+        Bounds of the log relative noise variances (None: 1e-8 to 10).
+    free_sd : bool, default=False
+        No bounds on the log discrepancy standard deviations (a prior
+        bounds them instead).
 
     Examples
     --------
@@ -236,6 +197,9 @@ class DiscrepancyFit:
         regression=None,
         restricted=False,
         unit_scale=False,
+        fixed_noise=None,
+        log_noise_bounds=None,
+        free_sd=False,
     ):
         self.kernel, self.X, self.Y, self.H, self.V_fixed = kernel, X, Y, H, V_fixed
         self.regression = regression
@@ -249,9 +213,13 @@ class DiscrepancyFit:
             self.scale = np.ones(self.q)
         self.rows, self.cols = np.tril_indices(self.q, -1)
         self.n_kernel = kernel.n_dims
-        self.fixed_noise = None
+        self.fixed_noise = None if fixed_noise is None else float(fixed_noise)
         self.log_sd_bounds = np.tile(_LOG_REL_SD, (self.q, 1))
-        self.log_noise_bounds = _LOG_REL_NOISE
+        if free_sd:
+            self.log_sd_bounds[:] = (-np.inf, np.inf)
+        self.log_noise_bounds = (
+            _LOG_REL_NOISE if log_noise_bounds is None else tuple(log_noise_bounds)
+        )
         self.floor = np.zeros(self.q)
         if variance_bounds is not None:
             lo, hi = (np.broadcast_to(v, (self.q,)) for v in variance_bounds)
@@ -259,11 +227,6 @@ class DiscrepancyFit:
             # The free part s^2 spans [0, high - low]; its log needs a bottom.
             top = 0.5 * np.log(np.maximum(hi - lo, 0.0) / self.scale**2 + 1e-300)
             self.log_sd_bounds[:, 1] = np.maximum(top, _LOG_REL_SD[0])
-
-    def fix_noise(self, relative):
-        """Hold the noise at ``relative`` times each response's variance."""
-        self.fixed_noise = float(relative)
-        return self
 
     # ------------------------------------------------------- parameters
     # params = [kernel theta (k), log relative noise (q), log relative
@@ -404,10 +367,9 @@ class DiscrepancyFit:
         max_iter=None,
         on_start=None,
     ):
-        """Maximise the likelihood; returns ``self`` with the fitted values.
+        """Maximise the likelihood; returns the :class:`DiscrepancyEstimate`.
 
-        Sets ``kernel_``, ``sigma2``, ``noise``, ``beta`` (p, q) and
-        ``log_likelihood``. ``start`` (packed parameters, see :meth:`pack`)
+        ``start`` (packed parameters, see :meth:`pack`)
         replaces the default starting point of :meth:`start`; it is clipped
         to the bounds. ``max_iter`` bounds the L-BFGS-B iterations of each
         start (None: scipy's default); reaching it is not warned about, the
@@ -418,6 +380,32 @@ class DiscrepancyFit:
         rng = np.random.default_rng(seed_sequence(random_state))
         bounds = self.bounds()
         x0 = self.start() if start is None else np.clip(start, *bounds.T)
+        starts = self._starts(x0, bounds, n_restarts, rng)
+        if optimizer == "differential_evolution":
+            starts = [self._global_start(bounds, rng)]
+        elif optimizer != "fmin_l_bfgs_b":
+            raise ValueError(
+                f"discrepancy optimizer={optimizer!r} is not supported; use one "
+                f"of {DISCREPANCY_OPTIMIZERS}."
+            )
+        best = None
+        for k, s in enumerate(starts, 1):
+            res = self._local_search(s, bounds, max_iter)
+            if on_start is not None:
+                on_start(k, len(starts), float(res.fun))
+            if best is None or res.fun < best.fun:
+                best = res
+        if not np.isfinite(best.fun):
+            raise FactorizationError(
+                "The module-2 likelihood could not be evaluated at any start: the "
+                "field-data covariance is singular. Check the field data (are "
+                "there duplicated rows?) or use another discrepancy kernel."
+            )
+        return self.estimate(best.x)
+
+    def _starts(self, x0, bounds, n_restarts, rng):
+        """``x0`` and ``n_restarts`` random starts: kernel hyperparameters
+        uniform within their bounds, log relative noise in [log 1e-4, 0]."""
         starts = [x0]
         for _ in range(n_restarts):
             s = x0.copy()
@@ -429,55 +417,50 @@ class DiscrepancyFit:
                     np.log(1e-4), 0.0, self.q
                 )
             starts.append(s)
-        if optimizer == "differential_evolution":
-            box = bounds.copy()
-            box[~np.isfinite(box)] = 0.0
-            box[self.n_kernel + 2 * self.q :] = (-3.0, 3.0)  # correlations z
-            result = optimize.differential_evolution(
-                lambda p: self._objective(p, eval_gradient=False),
-                box,
-                seed=int(rng.integers(2**31 - 1)),
-                polish=False,
-                tol=1e-6,
-                maxiter=300,
+        return starts
+
+    def _global_start(self, bounds, rng):
+        """The start found by differential evolution over the bounds (the
+        correlation factors within +-3)."""
+        box = bounds.copy()
+        box[~np.isfinite(box)] = 0.0
+        box[self.n_kernel + 2 * self.q :] = (-3.0, 3.0)  # correlations z
+        result = optimize.differential_evolution(
+            lambda p: self._objective(p, eval_gradient=False),
+            box,
+            seed=int(rng.integers(2**31 - 1)),
+            polish=False,
+            tol=1e-6,
+            maxiter=300,
+        )
+        return result.x
+
+    def _local_search(self, start, bounds, max_iter):
+        """L-BFGS-B from ``start``; a run that stops short of convergence
+        (not at the caller's ``max_iter``) warns."""
+        res = optimize.minimize(
+            self._objective,
+            start,
+            jac=True,
+            method="L-BFGS-B",
+            bounds=bounds,
+            options={} if max_iter is None else {"maxiter": max_iter},
+        )
+        capped = max_iter is not None and res.nit >= max_iter
+        if not res.success and np.isfinite(res.fun) and not capped:
+            warn(
+                f"The discrepancy likelihood did not fully converge ({res.message}).",
+                ConvergenceWarning,
             )
-            starts = [result.x]
-        elif optimizer != "fmin_l_bfgs_b":
-            raise ValueError(
-                f"discrepancy optimizer={optimizer!r} is not supported; use one "
-                f"of {DISCREPANCY_OPTIMIZERS}."
-            )
-        best = None
-        for k, s in enumerate(starts, 1):
-            res = optimize.minimize(
-                self._objective,
-                s,
-                jac=True,
-                method="L-BFGS-B",
-                bounds=bounds,
-                options={} if max_iter is None else {"maxiter": max_iter},
-            )
-            capped = max_iter is not None and res.nit >= max_iter
-            if not res.success and np.isfinite(res.fun) and not capped:
-                warn(
-                    f"The discrepancy likelihood did not fully converge "
-                    f"({res.message}).",
-                    ConvergenceWarning,
-                )
-            if on_start is not None:
-                on_start(k, len(starts), float(res.fun))
-            if best is None or res.fun < best.fun:
-                best = res
-        if not np.isfinite(best.fun):
-            raise FactorizationError(
-                "The module-2 likelihood could not be evaluated at any start: the "
-                "field-data covariance is singular. Check the field data (are "
-                "there duplicated rows?) or use another discrepancy kernel."
-            )
-        self.log_likelihood = self.evaluate(best.x, eval_gradient=False)
-        self.kernel_, self.sigma2, self.noise, self.beta = self.last
-        self.params = best.x
-        return self
+        return res
+
+    def estimate(self, params):
+        """The :class:`DiscrepancyEstimate` at the packed ``params``."""
+        log_likelihood = self.evaluate(params, eval_gradient=False)
+        kernel_, sigma2, noise, beta = self.last
+        return DiscrepancyEstimate(
+            kernel_, sigma2, noise, beta, self.regression, log_likelihood, params
+        )
 
 
 def check_module2_memory(kernel, residual):
@@ -543,8 +526,9 @@ def fit_discrepancy(
         Discrepancy correlation (see :func:`discrepancy_kernel`).
     regression : {"constant", "linear", "quadratic"}
     ranges : dict or None
-        As returned by :func:`check_discrepancy_ranges` (for all responses);
-        the likelihood is maximised within them.
+        As returned by
+        :func:`~skmba.priors._table_6_2.check_discrepancy_ranges` (for all
+        responses); the likelihood is maximised within them.
     noise : bool
         Estimate the noise; False holds it at a negligible nugget.
     optimizer : {"fmin_l_bfgs_b", "differential_evolution"}
@@ -577,10 +561,15 @@ def fit_discrepancy(
     check_module2_memory(kernel_d, residual)
     H_d = regression_basis(X_e, regression)
     disc = DiscrepancyFit(
-        kernel_d, X_e, residual, H_d, V_fixed, variance, regression=regression
+        kernel_d,
+        X_e,
+        residual,
+        H_d,
+        V_fixed,
+        variance,
+        regression=regression,
+        fixed_noise=None if noise else 1e-10,
     )
-    if not noise:
-        disc.fix_noise(1e-10)
     progress = as_progress(progress)
     n_starts = 1 if optimizer == "differential_evolution" else n_restarts + 1
     with progress.bar(n_starts, "module 2: discrepancy", unit="start") as bar:

@@ -83,7 +83,7 @@ class HyperposteriorDraws:
 
     Attributes
     ----------
-    mode : DiscrepancyFit
+    mode : DiscrepancyEstimate
         At the posterior mode (``kernel_``, ``sigma2``, ``noise``, ``beta``):
         the fitted attributes of the calibrator.
     components : list of DiscrepancyComponent
@@ -279,6 +279,65 @@ def _noise_posterior_mean(coords, mode, cov, seed):
     return w @ noise, float(1.0 / np.sum(w**2))
 
 
+def _posterior_coordinates(X_e, residual, V_fixed, prior, kernel, regression, noise):
+    """The restricted likelihood of module 2 under ``prior``, in the
+    unbounded coordinates of :class:`_Coordinates`."""
+    kernel_d = discrepancy_kernel(kernel, X_e)
+    if "roughness" in kernel_d.get_params():
+        lo, hi = (np.full(X_e.shape[1], v) for v in prior.roughness)
+        kernel_d = bound_roughness(kernel_d, lo, hi)
+    check_module2_memory(kernel_d, residual)
+    H_d = regression_basis(X_e, regression)
+    prior.scales(residual.shape[1])  # one sd_scale per response, or one
+    fit = DiscrepancyFit(
+        kernel_d,
+        X_e,
+        residual,
+        H_d,
+        V_fixed,
+        None,
+        regression=regression,
+        restricted=True,
+        unit_scale=True,
+        fixed_noise=None if noise else 1e-10,
+        log_noise_bounds=np.log(prior.noise) if noise else None,
+        free_sd=True,
+    )
+    return _Coordinates(fit, prior)
+
+
+def _posterior_mode(coords, n_restarts, noise, seed, progress):
+    """The mode of the module-2 posterior: L-BFGS-B from the default start
+    and ``n_restarts`` random ones (kernel and noise uniform in their
+    bounds); the best ``scipy.optimize`` result."""
+    fit, k, q = coords.fit, coords.k, coords.q
+    rng = np.random.default_rng(seed)
+    p0 = fit.start()
+    starts = [coords.to_v(p0)]
+    for _ in range(n_restarts):
+        p = p0.copy()
+        p[:k] = rng.uniform(coords.lo[:k], coords.hi[:k])
+        if noise:
+            p[k : k + q] = rng.uniform(coords.lo[k : k + q], coords.hi[k : k + q])
+        starts.append(coords.to_v(p))
+    progress = as_progress(progress)
+    best = None
+    with progress.bar(len(starts), "module 2: discrepancy", unit="start") as bar:
+        report = start_reporter(progress, bar, "module 2")
+        for j, v0 in enumerate(starts, 1):
+            res = optimize.minimize(coords.objective, v0, jac=True, method="L-BFGS-B")
+            report(j, len(starts), float(res.fun))
+            if best is None or res.fun < best.fun:
+                best = res
+    if not best.fun < 1e300:
+        raise FactorizationError(
+            "The module-2 posterior could not be evaluated at any start: the "
+            "field-data covariance is singular. Check the field data (are "
+            "there duplicated rows?) or use another discrepancy kernel."
+        )
+    return best
+
+
 def fit_hyperposterior(
     X_e,
     residual,
@@ -327,60 +386,13 @@ def fit_hyperposterior(
     -------
     HyperposteriorDraws
     """
-    kernel_d = discrepancy_kernel(kernel, X_e)
-    if "roughness" in kernel_d.get_params():
-        lo, hi = (np.full(X_e.shape[1], v) for v in prior.roughness)
-        kernel_d = bound_roughness(kernel_d, lo, hi)
-    check_module2_memory(kernel_d, residual)
-    H_d = regression_basis(X_e, regression)
-    prior.scales(residual.shape[1])  # one sd_scale per response, or one
-    fit = DiscrepancyFit(
-        kernel_d,
-        X_e,
-        residual,
-        H_d,
-        V_fixed,
-        None,
-        regression=regression,
-        restricted=True,
-        unit_scale=True,
+    coords = _posterior_coordinates(
+        X_e, residual, V_fixed, prior, kernel, regression, noise
     )
-    q, k = fit.q, fit.n_kernel
-    fit.log_sd_bounds = np.full((q, 2), (-np.inf, np.inf))
-    if noise:
-        fit.log_noise_bounds = tuple(np.log(prior.noise))
-    else:
-        fit.fix_noise(1e-10)
-    coords = _Coordinates(fit, prior)
     mode_seed, draw_seed, noise_seed = seed_sequence(random_state).spawn(3)
-    rng = np.random.default_rng(mode_seed)
-    p0 = fit.start()
-    starts = [coords.to_v(p0)]
-    for _ in range(n_restarts):
-        p = p0.copy()
-        p[:k] = rng.uniform(coords.lo[:k], coords.hi[:k])
-        if noise:
-            p[k : k + q] = rng.uniform(coords.lo[k : k + q], coords.hi[k : k + q])
-        starts.append(coords.to_v(p))
-    progress = as_progress(progress)
-    best = None
-    with progress.bar(len(starts), "module 2: discrepancy", unit="start") as bar:
-        report = start_reporter(progress, bar, "module 2")
-        for j, v0 in enumerate(starts, 1):
-            res = optimize.minimize(coords.objective, v0, jac=True, method="L-BFGS-B")
-            report(j, len(starts), float(res.fun))
-            if best is None or res.fun < best.fun:
-                best = res
-    if not best.fun < 1e300:
-        raise FactorizationError(
-            "The module-2 posterior could not be evaluated at any start: the "
-            "field-data covariance is singular. Check the field data (are "
-            "there duplicated rows?) or use another discrepancy kernel."
-        )
-    mode_p, _ = coords.to_p(best.x)
-    fit.log_likelihood = fit.evaluate(mode_p, eval_gradient=False)
-    fit.kernel_, fit.sigma2, fit.noise, fit.beta = fit.last
-    fit.params = mode_p
+    best = _posterior_mode(coords, n_restarts, noise, mode_seed, progress)
+    fit = coords.fit
+    mode = fit.estimate(coords.to_p(best.x)[0])
     cov = _laplace_cov(coords, best.x)
     draws, log_p, log_q = _proposal_draws(coords, best.x, cov, n_draws, draw_seed)
     log_w = log_p - log_q
@@ -388,7 +400,7 @@ def fit_hyperposterior(
     components = []
     for v in draws:
         theta, lam, L = fit.unpack(coords.to_p(v)[0])
-        kern = fit.kernel.clone_with_theta(theta) if k else fit.kernel
+        kern = fit.kernel.clone_with_theta(theta) if fit.n_kernel else fit.kernel
         sigma2 = L @ L.T
         components.append(DiscrepancyComponent(kern, sigma2, lam, regression))
     noise = (
@@ -396,7 +408,7 @@ def fit_hyperposterior(
         if noise_mean
         else (None, None)
     )
-    return HyperposteriorDraws(fit, components, log_w, cov, *noise)
+    return HyperposteriorDraws(mode, components, log_w, cov, *noise)
 
 
 def propagated_module2(integrated, *, first_pass, posterior, integrate, second_pass):

@@ -84,7 +84,7 @@ def prediction_rule(
     posterior, log_posterior, random_state=None, with_draws=True, n_jobs=None
 ):
     """The module-4 rule of a
-    :class:`~skmba.calibration._module3_posterior.PosteriorResult`.
+    :class:`~skmba.mcmc._posterior.PosteriorResult`.
 
     Over a :class:`~skmba.calibration._module3_mixture.ModelMixture`, each ``theta`` of
     the rule comes with the module-2 draws ``phi_k``: every draw with its weight

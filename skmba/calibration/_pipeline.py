@@ -37,11 +37,7 @@ import numpy as np
 from skmba._core.linalg import FEWER_FIELD_DATA, FLOAT_BYTES, check_memory, n_workers
 from skmba._core.regression import n_regression_terms
 from skmba.calibration._module1_emulator import Standardizer, fit_emulator
-from skmba.calibration._module2_plug_in import (
-    check_discrepancy_ranges,
-    fit_discrepancy,
-    ranges_text,
-)
+from skmba.calibration._module2_plug_in import fit_discrepancy
 from skmba.calibration._module2_posterior import (
     HyperposteriorDraws,
     fit_hyperposterior,
@@ -64,6 +60,7 @@ from skmba.calibration._module4_prediction import prediction_rule
 from skmba.calibration._simulations import check_design_size, collect_simulations
 from skmba.kernels import check_correlation
 from skmba.priors._hyperprior import Hyperprior
+from skmba.priors._table_6_2 import check_discrepancy_ranges, ranges_text
 
 #: Fitted attributes that only one posterior method sets.
 OPTIONAL_FITTED = (

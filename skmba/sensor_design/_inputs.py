@@ -22,11 +22,14 @@ from sklearn.utils import check_array
 
 from skmba._core.validation import Boolean, Count, InstanceOf, NJobs, Options
 from skmba.calibration._estimator import ModularBayesCalibrator
-from skmba.calibration._module2_plug_in import check_interval
 from skmba.calibration._settings import DISCREPANCY_UNCERTAINTIES
 from skmba.calibration._simulations import RUNS_PER_INPUT
 from skmba.priors._hyperprior import Hyperprior
-from skmba.priors._table_6_2 import DEFAULT_DISCREPANCY_PRIOR, DEFAULT_NOISE_PRIOR
+from skmba.priors._table_6_2 import (
+    DEFAULT_DISCREPANCY_PRIOR,
+    DEFAULT_NOISE_PRIOR,
+    check_interval,
+)
 from skmba.priors._theta import check_prior
 
 PRIOR_UNITS = ("standardised", "user")

@@ -30,8 +30,8 @@ def _fit(X, Y, V):
         regression="linear",
         restricted=True,
         unit_scale=True,
+        free_sd=True,
     )
-    fit.log_sd_bounds = np.full((2, 2), (-np.inf, np.inf))
     return fit
 
 
