@@ -12,9 +12,10 @@ Units throughout are N, mm and MPa (N/mm²): forces in N, moments in N·mm,
 lengths and displacements in mm, rotations in rad, Young's modulus in MPa,
 second moment of area in mm⁴ and deformation energy in N·mm.
 
-The model and the reality live in :mod:`skmba.datasets._cantilever_model`;
-this module checks the arguments, draws the designs, adds noise and outliers
-and assembles the dataset, one step per function.
+The model and the reality live in :mod:`skmba.datasets._cantilever_model`
+and the checks of the arguments in :mod:`skmba.datasets._cantilever_checks`;
+this module draws the designs, adds noise and outliers and assembles the
+dataset, one step per function.
 
 Examples
 --------
@@ -24,19 +25,15 @@ Examples
 ((5, 2), (1,))
 """
 
-from __future__ import annotations
-
 import math
 import textwrap
-from dataclasses import dataclass
 
 import numpy as np
 from scipy import stats
 
-from skmba._core.validation import check_count
+from skmba.datasets._cantilever_checks import PARAMETER_BOUNDS, check_arguments
 from skmba.datasets._cantilever_model import (
     RESPONSE_UNITS,
-    RESPONSES,
     CantileverModel,
     CantileverReality,
 )
@@ -44,23 +41,13 @@ from skmba.datasets._design import (
     add_noise,
     as_generator,
     calibration_bunch,
-    check_positive,
     latin_hypercube,
     noise_variance,
-    per_response,
     scale_to_bounds,
 )
 
 __all__ = ["CantileverModel", "CantileverReality", "make_cantilever"]
 
-_PARAMETER_SETS = (("E",), ("E", "I"))
-_DESIGN_SETS = (("force",), ("force", "moment"))
-_PRIORS = ("uniform", "gaussian")
-_DESIGNS = ("lhs", "grid")
-
-# Table 4.1 (F, E), Table 4.2 (M) and Table 4.3 (I) sampling ranges.
-_DESIGN_BOUNDS = {"force": (1.0e3, 10.0e3), "moment": (1.0e6, 30.0e6)}
-_PARAMETER_BOUNDS = {"E": (20.0e3, 100.0e3), "I": (2.25e8, 11.25e8)}
 # Eq. (4.54): univariate (E only) and multivariate (E, I) Gaussian priors.
 _GAUSS_1D = (50.0e3, 10.0e3)  # mean, standard deviation of E [MPa]
 _GAUSS_2D_MEAN = (53.0e3, 47.2e7)  # [MPa, mm^4]
@@ -68,130 +55,6 @@ _GAUSS_2D_COV = ((1.0e8, 0.0), (0.0, 4.5e15))
 # Outliers are placed this many standard deviations of the observed signal
 # away from the noise-free reality (section 4.7.6: "mu + 6 sigma").
 _OUTLIER_SHIFT = 6.0
-
-
-# --------------------------------------------------------------------------
-# input validation
-# --------------------------------------------------------------------------
-
-
-def _as_tuple(value):
-    """``value`` as a tuple: a string or a non-iterable becomes a 1-tuple."""
-    if isinstance(value, str):
-        return (value,)
-    try:
-        return tuple(value)
-    except TypeError:
-        return (value,)
-
-
-def _check_names(value, argument, allowed):
-    """Validate a tuple of response names (``"all"`` or a subset)."""
-    value = allowed if isinstance(value, str) and value == "all" else _as_tuple(value)
-    bad = [v for v in value if not isinstance(v, str) or v not in allowed]
-    if not value or bad or len(set(value)) != len(value):
-        raise ValueError(
-            f"{argument} must be 'all' or a non-empty sequence of distinct names "
-            f"from {allowed}, got {value!r}"
-        )
-    return value
-
-
-def _check_choice(value, argument, allowed):
-    """Validate a value that must be one of ``allowed``.
-
-    Tuple-valued choices (``allowed`` holds tuples) take any sequence, and a
-    single string stands for a 1-tuple.
-    """
-    if isinstance(allowed[0], tuple):
-        value = _as_tuple(value)
-    if value not in allowed:
-        raise ValueError(f"{argument} must be one of {allowed}, got {value!r}")
-    return value
-
-
-@dataclass(frozen=True, eq=False)
-class _Settings:
-    """The checked arguments of :func:`make_cantilever` and what follows."""
-
-    n_simulations: int
-    n_observations: int
-    response_names: tuple
-    parameter_names: tuple
-    design_variable_names: tuple
-    simulation_design: str
-    prior: str
-    snr: np.ndarray | None
-    n_outliers: int
-    spring_stiffness: float
-    E_true: float
-    I_true: float
-    length: float
-
-    @property
-    def X_bounds(self):
-        """Ranges of the design variables, shape (d, 2)."""
-        return np.array([_DESIGN_BOUNDS[v] for v in self.design_variable_names])
-
-    @property
-    def theta_bounds(self):
-        """Ranges of the simulated parameters, shape (r, 2)."""
-        return np.array([_PARAMETER_BOUNDS[p] for p in self.parameter_names])
-
-    @property
-    def theta_true(self):
-        """True parameters: E*, and I* when calibrated."""
-        return np.array([self.E_true, self.I_true][: len(self.parameter_names)])
-
-
-def _check_arguments(
-    n_simulations,
-    n_observations,
-    responses,
-    parameters,
-    design_variables,
-    simulation_design,
-    prior,
-    snr_db,
-    n_outliers,
-    spring_stiffness,
-    E_true,
-    I_true,
-    length,
-):
-    """Check the arguments of :func:`make_cantilever` (same names), in order."""
-    n_simulations = check_count(n_simulations, "n_simulations")
-    n_observations = check_count(n_observations, "n_observations")
-    response_names = _check_names(responses, "responses", RESPONSES)
-    parameter_names = _check_choice(parameters, "parameters", _PARAMETER_SETS)
-    design_variable_names = _check_choice(
-        design_variables, "design_variables", _DESIGN_SETS
-    )
-    simulation_design = _check_choice(simulation_design, "simulation_design", _DESIGNS)
-    prior = _check_choice(prior, "prior", _PRIORS)
-    q = len(response_names)
-    snr = None if snr_db is None else per_response(snr_db, "snr_db", q)
-    n_outliers = check_count(n_outliers, "n_outliers", minimum=0)
-    if n_outliers > n_observations:
-        raise ValueError(
-            f"n_outliers must be between 0 and n_observations={n_observations}, "
-            f"got {n_outliers}"
-        )
-    return _Settings(
-        n_simulations,
-        n_observations,
-        response_names,
-        parameter_names,
-        design_variable_names,
-        simulation_design,
-        prior,
-        snr,
-        n_outliers,
-        check_positive(spring_stiffness, "spring_stiffness", allow_inf=True),
-        check_positive(E_true, "E_true"),
-        check_positive(I_true, "I_true"),
-        check_positive(length, "length"),
-    )
 
 
 # --------------------------------------------------------------------------
@@ -220,7 +83,7 @@ def _make_prior(prior, parameter_names):
     if prior == "uniform":
         return [
             stats.uniform(loc=lo, scale=hi - lo)
-            for lo, hi in (_PARAMETER_BOUNDS[p] for p in parameter_names)
+            for lo, hi in (PARAMETER_BOUNDS[p] for p in parameter_names)
         ]
     if len(parameter_names) == 1:
         return [stats.norm(loc=_GAUSS_1D[0], scale=_GAUSS_1D[1])]
@@ -327,6 +190,31 @@ def _description(settings, n_simulations, k):
         + (f"{k}^{dimension} grid" if k is not None else "LHS")
         + f"), {s.n_observations} observations ({noise}, "
         f"{s.n_outliers} outliers).\n"
+    )
+
+
+def _dataset(settings, arrays, simulator, reality, variance, outlier_indices, k):
+    """The returned Bunch: ``arrays`` (``X_sim``, ``theta_sim``, ``y_sim``,
+    ``X_obs``, ``y_obs``, ``y_obs_true``) with what describes them."""
+    y_sim = arrays[2]
+    return calibration_bunch(
+        *arrays,
+        theta_true=settings.theta_true,
+        prior=_make_prior(settings.prior, settings.parameter_names),
+        simulator=simulator,
+        reality=reality,
+        outlier_indices=outlier_indices,
+        noise_variance=variance,
+        snr_db=settings.snr,
+        response_names=settings.response_names,
+        parameter_names=settings.parameter_names,
+        design_variable_names=settings.design_variable_names,
+        response_units=tuple(RESPONSE_UNITS[n] for n in settings.response_names),
+        X_bounds=settings.X_bounds,
+        theta_bounds=settings.theta_bounds,
+        simulation_design=settings.simulation_design,
+        grid_points_per_axis=k,
+        DESCR=_description(settings, y_sim.shape[0], k),
     )
 
 
@@ -565,7 +453,7 @@ def make_cantilever(
     >>> data.theta_sim.shape, data.theta_true.tolist()
     ((170, 2), [70000.0, 675000000.0])
     """
-    settings = _check_arguments(
+    settings = check_arguments(
         n_simulations,
         n_observations,
         responses,
@@ -587,27 +475,12 @@ def make_cantilever(
     X_obs = _observation_sites(settings, rng)
     y_obs_true = reality(X_obs)
     y_obs, variance, outlier_indices = _observe(y_obs_true, settings, rng)
-    return calibration_bunch(
-        X_sim,
-        theta_sim,
-        y_sim,
-        X_obs,
-        y_obs,
-        y_obs_true,
-        theta_true=settings.theta_true,
-        prior=_make_prior(settings.prior, settings.parameter_names),
-        simulator=simulator,
-        reality=reality,
-        outlier_indices=outlier_indices,
-        noise_variance=variance,
-        snr_db=settings.snr,
-        response_names=settings.response_names,
-        parameter_names=settings.parameter_names,
-        design_variable_names=settings.design_variable_names,
-        response_units=tuple(RESPONSE_UNITS[n] for n in settings.response_names),
-        X_bounds=settings.X_bounds,
-        theta_bounds=settings.theta_bounds,
-        simulation_design=settings.simulation_design,
-        grid_points_per_axis=k,
-        DESCR=_description(settings, y_sim.shape[0], k),
+    return _dataset(
+        settings,
+        (X_sim, theta_sim, y_sim, X_obs, y_obs, y_obs_true),
+        simulator,
+        reality,
+        variance,
+        outlier_indices,
+        k,
     )

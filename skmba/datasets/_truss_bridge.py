@@ -1,140 +1,18 @@
 """Aluminium truss bridge under thermal loading (thesis section 5.2 and 6.4).
 
-A reduced-scale aluminium truss bridge is heated from above. A pair of
-linear springs restrains the horizontal movement of one of its ends, and their
-stiffness ``k`` is the parameter to calibrate from strain-gauge readings taken
-at different temperatures. This module provides the dataset generator,
-:func:`make_truss_bridge`. It is built on a small finite element model of
-such a bridge (:mod:`skmba.datasets._truss_bridge_model`, solved by the
-direct stiffness method of :mod:`skmba.datasets._truss_solver`).
+A reduced-scale aluminium truss bridge is heated from above; the stiffness
+``k`` of the spring that restrains one of its ends is calibrated from
+strain-gauge readings at different temperatures. This module provides the
+dataset generator, :func:`make_truss_bridge`: it draws the designs, runs
+the uniformly heated model and the top-heated reality, adds noise and
+assembles the dataset, one step per function. The arguments are checked in
+:mod:`skmba.datasets._truss_bridge_checks`; the finite element model is
+:mod:`skmba.datasets._truss_bridge_model`, solved by the direct stiffness
+method of :mod:`skmba.datasets._truss_solver`.
 
-Structure
----------
-The figure of the laboratory bridge (thesis Fig. 5.4) is not available in
-text form, so the geometry below is our own choice, sized like a
-laboratory model. It is a parallel-chord Pratt truss of eight 400 mm panels
-(span 3200 mm, depth 400 mm) with inclined end posts and crossed diagonals
-(both diagonals) in the six interior panels. The diagonals of a panel are
-not connected where they cross::
-
-           U1      U2      U3      U4      U5      U6      U7
-            o-------o-------o-------o-------o-------o-------o
-          / | \\   / | \\   / | \\   / | \\   / | \\   / | \\   / | \\
-        /   |   X   |   X   |   X   |   X   |   X   |   X   |   \\
-      /     | /   \\ | /   \\ | /   \\ | /   \\ | /   \\ | /   \\ |     \\
-    o-------o-------o-------o-------o-------o-------o-------o-------o--/\\/\\/--|
-    L0     L1      L2      L3      L4      L5      L6      L7      L8    k
-    ^ pin                                                          o roller
-
-16 nodes (lower chord ``L0``-``L8``, upper chord ``U1``-``U7``) and 35 bars.
-``L0`` is pinned. ``L8`` sits on a roller (restrained vertically), and a
-horizontal spring of stiffness ``k`` connects it to the abutment. The
-supports are statically determinate. The crossed panels make the truss
-internally indeterminate six times, so a non-uniform temperature field stresses
-it even when ``k = 0``.
-
-Members are square hollow sections of aluminium 6082-T6. Chords and end
-posts are 30x30x2 mm (A = 224 mm^2); verticals and diagonals are 20x20x2 mm
-(A = 144 mm^2). The material constants are those of the thesis FE model:
-E = 70 GPa and alpha = 23.1e-6 /degC.
-
-Units and sign conventions
---------------------------
-Forces are in N, lengths in mm, stresses and E in MPa (N/mm^2), stiffnesses in
-N/mm, temperatures in degC. ``x`` points along the span from ``L0`` to ``L8``
-and ``y`` points up. Nodal displacements and loads are positive along ``x``
-and ``y``. Global dof ``2 i`` is the ``x`` dof of node ``i`` and
-``2 i + 1`` its ``y`` dof. Bar forces and strains are positive in tension.
-A positive temperature change means heating. Responses are strains in
-microstrain (1e-6).
-
-Thermal load and strain gauges
-------------------------------
-Take a bar of length ``L`` with temperature change ``dT``. It would expand
-freely by ``alpha dT L``. In the stiffness method this becomes a pair of
-equivalent nodal forces ``+-E A alpha dT`` along the bar axis, pushing its
-end nodes apart. From the nodal displacements the bar's total strain is its
-elongation divided by ``L``. Its mechanical (stress-producing) strain is
-``elongation / L - alpha dT``, and its axial force is ``E A`` times the
-mechanical strain.
-
-The gauges on the bridge are temperature compensated for aluminium, and the
-thesis removes their remaining thermal output in post-processing. Such a
-gauge reads the **mechanical** strain: it reads zero on a bar that expands
-freely. The gauges are also taken to be zeroed at the reference
-temperature ``T_ref = 20 degC`` (thesis section 5.2.2). The dead load
-therefore cancels (the model is linear), and every response is linear in
-``T - T_ref``.
-
-Model and reality
------------------
-The model (the simulator) follows the thesis FE model. It applies the
-measured temperature ``T`` uniformly to every bar. A uniform temperature
-change leaves any truss stress-free when its supports are statically
-determinate, so every strain in the model comes from the spring force. This
-force restrains the expansion of the lower chord::
-
-    F_s = k K_t / (k + K_t) * alpha (T - T_ref) * span,
-
-where ``K_t`` is the horizontal stiffness of the truss at the roller.
-Every model strain is this one force times a fixed influence coefficient.
-The model's gauge readings are therefore exactly proportional to one
-another, ``y_m(T, k) = (T - T_ref) s(k) w`` for a fixed vector ``w``. The
-thesis FE model has the same property (one spring force, uniform
-temperature, linear elasticity). It matters for emulators: a noise-free
-multi-response Gaussian process fitted to several gauges of ``y_sim`` has a
-singular response covariance. Fit such an emulator with a noise term, or
-emulate one gauge at a time.
-
-In reality (the laboratory experiment) the heaters are above the bridge and
-its top is hotter than its bottom. In the thesis, ``T`` is the temperature
-measured at the top of the bridge. We therefore give reality the following
-temperature change at relative height ``eta = y / h``::
-
-    dT(eta) = (T - T_ref) * [(1 - g) + g * eta**p],
-
-averaged along each bar. The upper chord gets the full ``T - T_ref``, the
-lower chord ``(1 - g)`` of it, and verticals and diagonals values in between.
-``g`` is the ``gradient`` factor and ``p`` the ``gradient_exponent``. This
-temperature field is the model discrepancy: with ``g = 0`` reality and model
-coincide.
-
-The default is ``p = 2``: the temperature drops faster than linearly
-below the irradiated upper chord. The choice matters. A temperature field
-that is linear in the coordinates (``p = 1``) leaves any truss free of
-internal stress. Reality is then just the model times ``(1 - g)`` (a
-smaller spring force), the same factor at every gauge, and the discrepancy
-is indistinguishable from a change of ``k``. With ``p != 1`` the crossed
-panels develop self-stresses, and each gauge sees its own discrepancy. The
-real bridge behaved like this: at some gauges the strain trend had opposite
-signs in model and experiment (thesis section 5.2.4). Reality is still
-linear in ``T - T_ref`` at fixed ``k``, so its noise-free readings are
-proportional across gauges too, but along a different vector than the
-model's.
-
-Strain gauges
--------------
-The thesis had eleven gauges ``SA``-``SK`` (section 5.2). Nine of them,
-``SA``-``SI``, were used in the sensor-design study of section 6.4. The
-text places ``A`` and ``E`` near the bridge ends. It places ``B`` and ``G``
-one at the top and one at the bottom, and ``H`` and ``I`` at the centre.
-We keep these names and hints and choose the rest:
-
-====  ========  ==========================================
-Name  Bar       Position
-====  ========  ==========================================
-SA    L0-L1     lower chord, end panel at the pinned support
-SB    U2-U3     upper chord, third panel
-SC    U2-L3     diagonal, third panel
-SD    L2-U2     vertical, second panel point
-SE    L7-U7     vertical next to the spring end
-SF    L5-U6     diagonal, sixth panel
-SG    L3-L4     lower chord, fourth panel
-SH    U4-U5     upper chord, mid-span
-SI    L4-L5     lower chord, mid-span
-SJ    L4-U4     vertical, mid-span
-SK    U4-L5     diagonal, fifth panel (mid-span)
-====  ========  ==========================================
+The bridge's geometry (our choice), units and sign conventions, thermal
+load, gauge layout, and why reality is heated as it is: docs/internals.rst,
+section skmba.datasets._truss_bridge.
 
 Examples
 --------
@@ -145,23 +23,22 @@ Examples
 ((8, 2), (4, 2), [0.25, 0.25])
 """
 
-import numbers
-from dataclasses import dataclass
-
 import numpy as np
-from scipy import stats
 
-from skmba._core.validation import check_count
 from skmba.datasets._design import (
     add_noise,
     as_generator,
     calibration_bunch,
-    check_positive,
     latin_hypercube,
     noise_variance,
-    per_response,
     scale_to_bounds,
-    to_float,
+)
+from skmba.datasets._truss_bridge_checks import (
+    NOMINAL_SPRING_STIFFNESS,
+    REFERENCE_TEMPERATURE,
+    TEMPERATURE_RANGE,
+    check_arguments,
+    noise_levels,
 )
 from skmba.datasets._truss_bridge_model import (
     N_PANELS,
@@ -178,174 +55,6 @@ from skmba.datasets._truss_bridge_model import (
 )
 
 __all__ = ["make_truss_bridge"]
-
-REFERENCE_TEMPERATURE = 20.0  # degC, T_0 of section 5.2.2
-# Spring rate given by the supplier (thesis Table 5.1), N/mm.
-NOMINAL_SPRING_STIFFNESS = 552.26
-# Prior range of thesis Table 5.2, N/mm.
-STIFFNESS_RANGE = (300.0, 1000.0)
-# Temperature range of thesis Table 5.2, degC.
-TEMPERATURE_RANGE = (20.19, 45.49)
-
-
-# ------------------------------------------------------------- validation
-def _check_sensors(sensors):
-    """Gauge names chosen by ``sensors`` (names or indices); None is all."""
-    names = list(SENSORS)
-    if sensors is None:
-        return names
-    if isinstance(sensors, (str, numbers.Integral)):
-        sensors = [sensors]
-    try:
-        sensors = list(sensors)
-    except TypeError:
-        raise ValueError(
-            f"sensors must be None, a gauge name, an index or a list of them; "
-            f"got {sensors!r}."
-        ) from None
-    if not sensors:
-        raise ValueError(f"sensors must not be empty; choose among {names}.")
-    chosen = []
-    for s in sensors:
-        if isinstance(s, str):
-            if s not in SENSORS:
-                raise ValueError(
-                    f"sensors: unknown gauge {s!r}; valid names are {names}."
-                )
-            chosen.append(s)
-        elif isinstance(s, numbers.Integral) and not isinstance(s, bool):
-            if not 0 <= int(s) < len(names):
-                raise ValueError(
-                    f"sensors: index {s} out of range; use 0..{len(names) - 1} "
-                    f"or a name in {names}."
-                )
-            chosen.append(names[int(s)])
-        else:
-            raise ValueError(f"sensors: {s!r} is neither a gauge name nor an index.")
-    if len(set(chosen)) != len(chosen):
-        raise ValueError(f"sensors contains duplicates: {chosen}.")
-    return chosen
-
-
-def _check_prior(prior):
-    """A frozen univariate prior of ``k`` on ``[0, inf)``; None is U[300, 1000]."""
-    if prior is None:
-        low, high = STIFFNESS_RANGE
-        return stats.uniform(loc=low, scale=high - low)
-    if not all(callable(getattr(prior, a, None)) for a in ("rvs", "ppf", "support")):
-        raise ValueError(
-            "stiffness_prior must be a frozen univariate scipy.stats distribution "
-            "(with rvs, ppf and support), e.g. scipy.stats.uniform(loc=300, "
-            f"scale=700); got {prior!r}."
-        )
-    try:
-        low, high = (float(v) for v in prior.support())
-    except (TypeError, ValueError):
-        raise ValueError(
-            "stiffness_prior must be a univariate distribution whose support() "
-            "returns two numbers."
-        ) from None
-    if not low >= 0.0:
-        raise ValueError(
-            f"stiffness_prior puts mass on negative spring stiffness (support "
-            f"starts at {low}); use a prior on k >= 0, e.g. scipy.stats.uniform, "
-            "truncnorm or lognorm."
-        )
-    return prior
-
-
-def _check_temperature_range(temperature_range):
-    """``(T_min, T_max)`` as finite floats with ``T_min < T_max``."""
-    try:
-        low, high = (float(v) for v in temperature_range)
-    except (TypeError, ValueError):
-        raise ValueError(
-            "temperature_range must be a pair (T_min, T_max) in degC; got "
-            f"{temperature_range!r}."
-        ) from None
-    if not (np.isfinite(low) and np.isfinite(high) and low < high):
-        raise ValueError(
-            "temperature_range must be finite with T_min < T_max; got "
-            f"{temperature_range!r}."
-        )
-    return low, high
-
-
-def _check_gradient(gradient):
-    """The top-bottom temperature gradient factor, a number in [0, 1]."""
-    g = to_float(gradient)
-    if not 0.0 <= g <= 1.0:
-        raise ValueError(f"gradient must be a number in [0, 1]; got {gradient!r}.")
-    return g
-
-
-def _check_reference_temperature(reference_temperature):
-    """The stress-free temperature (degC), a finite number."""
-    reference_temperature = to_float(reference_temperature)
-    if not np.isfinite(reference_temperature):
-        raise ValueError("reference_temperature must be a finite number (degC).")
-    return reference_temperature
-
-
-@dataclass(frozen=True, eq=False)
-class _Settings:
-    """The checked arguments of :func:`make_truss_bridge`."""
-
-    n_simulations: int
-    n_observations: int
-    sensor_names: list
-    temperature_range: tuple
-    prior: object
-    k_true: float
-    gradient: float
-    gradient_exponent: float
-    reference_temperature: float
-
-
-def _check_arguments(
-    n_simulations,
-    n_observations,
-    sensors,
-    temperature_range,
-    stiffness_prior,
-    k_true,
-    gradient,
-    gradient_exponent,
-    reference_temperature,
-    snr_db,
-    noise_std,
-):
-    """Check the arguments of :func:`make_truss_bridge` (same names), in order.
-
-    Of ``snr_db`` and ``noise_std`` only their exclusion is checked here;
-    :func:`_noise_levels` checks their values.
-    """
-    settings = _Settings(
-        check_count(n_simulations, "n_simulations"),
-        check_count(n_observations, "n_observations"),
-        _check_sensors(sensors),
-        _check_temperature_range(temperature_range),
-        _check_prior(stiffness_prior),
-        check_positive(k_true, "k_true"),
-        _check_gradient(gradient),
-        check_positive(gradient_exponent, "gradient_exponent"),
-        _check_reference_temperature(reference_temperature),
-    )
-    if snr_db is not None and noise_std is not None:
-        raise ValueError(
-            "snr_db and noise_std are mutually exclusive; pass only one of them "
-            "(or neither for noise-free observations)."
-        )
-    return settings
-
-
-def _noise_levels(snr_db, noise_std, q):
-    """``snr_db`` and ``noise_std`` as (q,) arrays, or None where not given."""
-    if snr_db is not None:
-        snr_db = per_response(snr_db, "snr_db", q, nonnegative=False)
-    if noise_std is not None:
-        noise_std = per_response(noise_std, "noise_std", q, nonnegative=True)
-    return snr_db, noise_std
 
 
 # ------------------------------------------------------------------ steps
@@ -403,6 +112,38 @@ def _description(settings, sensor_bars, bar_kinds, variance):
     )
 
 
+def _dataset(
+    settings, arrays, simulator, reality, variance, snr, geometry, sensor_bars
+):
+    """The returned Bunch: ``arrays`` (``X_sim``, ``theta_sim``, ``y_sim``,
+    ``X_obs``, ``y_obs``, ``y_obs_true``) with what describes them and the
+    bridge's ``geometry`` (nodes, bars, bar names, bar kinds)."""
+    names = settings.sensor_names
+    nodes, bars, bar_names, bar_kinds = geometry
+    return calibration_bunch(
+        *arrays,
+        theta_true=np.array([settings.k_true]),
+        prior=[settings.prior],
+        simulator=simulator,
+        reality=reality,
+        noise_variance=variance,
+        snr_db=snr,
+        response_names=tuple(names),
+        parameter_names=("k",),
+        design_variable_names=("T",),
+        response_units=("microstrain",) * len(names),
+        X_bounds=np.array([settings.temperature_range]),
+        theta_bounds=np.array([[float(v) for v in settings.prior.support()]]),
+        nodes=nodes,
+        bars=bars,
+        bar_names=tuple(bar_names),
+        bar_kinds=tuple(bar_kinds),
+        sensor_bars=sensor_bars,
+        reference_temperature=settings.reference_temperature,
+        DESCR=_description(settings, sensor_bars, bar_kinds, variance),
+    )
+
+
 # ------------------------------------------------------------------ public
 def make_truss_bridge(
     n_simulations=60,
@@ -429,8 +170,9 @@ def make_truss_bridge(
     gauges, i.e. the mechanical strains in microstrain, zeroed at
     ``reference_temperature``. The model (``simulator``) heats every bar
     uniformly by ``T - T_ref``. Reality is hotter at the top than at the
-    bottom (see ``gradient``), and this is the model discrepancy. See the
-    module docstring for the geometry, conventions and gauge layout.
+    bottom (see ``gradient``), and this is the model discrepancy. See
+    :ref:`internals-datasets-truss-bridge` for the geometry, conventions and
+    gauge layout.
 
     Parameters
     ----------
@@ -460,7 +202,8 @@ def make_truss_bridge(
     gradient_exponent : float, default=2.0
         Shape ``p`` of the profile ``(1 - g) + g * eta**p`` over the relative
         height ``eta``. With 1 (linear) reality is the model scaled by
-        ``1 - g``, the same factor at every gauge (see module docstring).
+        ``1 - g``, the same factor at every gauge (see
+        :ref:`internals-datasets-truss-bridge`).
     reference_temperature : float, default=20.0
         Temperature (degC) at which the bridge is stress-free and the gauges
         are zeroed (thesis T_0).
@@ -528,9 +271,10 @@ def make_truss_bridge(
       sections (the hysteresis of thesis Fig. 5.5) and the dead load
       (cancelled by zeroing) are not modelled. All responses are exactly
       linear in ``T - T_ref``.
-    - The model's gauge strains are proportional to one another (see the
-      module docstring). A noise-free emulator of several gauges therefore
-      has a singular response covariance and needs a noise term.
+    - The model's gauge strains are proportional to one another (see
+      :ref:`internals-datasets-truss-bridge`). A noise-free emulator of
+      several gauges therefore has a singular response covariance and needs
+      a noise term.
       The geometry and sections are our own choice, since Fig. 5.4 is not
       available.
 
@@ -556,7 +300,7 @@ def make_truss_bridge(
     >>> np.round(pair.reality([[40.0]]), 1)
     array([[ -2. , -29.9]])
     """
-    settings = _check_arguments(
+    settings = check_arguments(
         n_simulations,
         n_observations,
         sensors,
@@ -570,41 +314,24 @@ def make_truss_bridge(
         noise_std,
     )
     names = settings.sensor_names
-    nodes, bars, bar_names, bar_kinds = bridge_geometry()
-    sensor_bars = np.array([bar_names.index(SENSORS[s]) for s in names])
+    geometry = bridge_geometry()  # nodes, bars, bar names, bar kinds
+    sensor_bars = np.array([geometry[2].index(SENSORS[s]) for s in names])
     simulator, reality = _model_and_reality(settings, sensor_bars)
     rng = as_generator(random_state)
     X_sim, theta_sim = _simulation_design(settings, rng)
     y_sim = simulator(X_sim, theta_sim)
     X_obs = _observation_temperatures(settings, rng)
     y_obs_true = reality(X_obs)
-    snr, std = _noise_levels(snr_db, noise_std, len(names))
+    snr, std = noise_levels(snr_db, noise_std, len(names))
     variance = noise_variance(y_obs_true, snr_db=snr, noise_std=std)
     y_obs = add_noise(y_obs_true, variance, rng)
-    return calibration_bunch(
-        X_sim,
-        theta_sim,
-        y_sim,
-        X_obs,
-        y_obs,
-        y_obs_true,
-        theta_true=np.array([settings.k_true]),
-        prior=[settings.prior],
-        simulator=simulator,
-        reality=reality,
-        noise_variance=variance,
-        snr_db=snr,
-        response_names=tuple(names),
-        parameter_names=("k",),
-        design_variable_names=("T",),
-        response_units=("microstrain",) * len(names),
-        X_bounds=np.array([settings.temperature_range]),
-        theta_bounds=np.array([[float(v) for v in settings.prior.support()]]),
-        nodes=nodes,
-        bars=bars,
-        bar_names=tuple(bar_names),
-        bar_kinds=tuple(bar_kinds),
-        sensor_bars=sensor_bars,
-        reference_temperature=settings.reference_temperature,
-        DESCR=_description(settings, sensor_bars, bar_kinds, variance),
+    return _dataset(
+        settings,
+        (X_sim, theta_sim, y_sim, X_obs, y_obs, y_obs_true),
+        simulator,
+        reality,
+        variance,
+        snr,
+        geometry,
+        sensor_bars,
     )

@@ -5,9 +5,9 @@ sections and material, the supports and the horizontal spring ``k`` at the
 roller end, the strain gauges, the top-heated temperature profile of the
 reality, and the picklable response callables that
 :func:`~skmba.datasets.make_truss_bridge` returns as ``simulator`` and
-``reality``. The docstring of :mod:`skmba.datasets._truss_bridge` describes
-the structure, the conventions and the gauge layout; the solver is
-:class:`~skmba.datasets._truss_solver.Truss`.
+``reality``. The structure, the conventions and the gauge layout are
+described in docs/internals.rst, section skmba.datasets._truss_bridge; the
+solver is :class:`~skmba.datasets._truss_solver.Truss`.
 
 Examples
 --------
@@ -44,14 +44,15 @@ __all__ = [
 YOUNGS_MODULUS = 70_000.0  # MPa = N/mm^2
 THERMAL_EXPANSION = 23.1e-6  # 1/degC
 
-# Geometry and sections (our choice; see skmba.datasets._truss_bridge).
+# Geometry and sections (our choice; see docs/internals.rst, section
+# skmba.datasets._truss_bridge).
 N_PANELS = 8
 PANEL_LENGTH = 400.0  # mm
 TRUSS_HEIGHT = 400.0  # mm
 CHORD_AREA = 30.0**2 - 26.0**2  # 30x30x2 SHS, mm^2
 WEB_AREA = 20.0**2 - 16.0**2  # 20x20x2 SHS, mm^2
 
-# Gauge name -> bar name (see the table in the docstring of
+# Gauge name -> bar name (see the table in docs/internals.rst, section
 # skmba.datasets._truss_bridge).
 SENSORS = {
     "SA": "L0-L1",
