@@ -191,23 +191,28 @@ def _figures(out, cal, data, designer, design_names):
     except ImportError:
         _say("  matplotlib is not installed: no figures (pip install 'skmba[plot]')")
         return []
-    from skmba.plotting import (
-        plot_calibrated_components,
-        plot_criterion_by_size,
-        plot_posterior,
-        plot_traces,
-    )
-
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     written = []
-
-    def save(fig, name, title):
+    for fig, name, title in _calibration_figures(cal, data):
         fig.suptitle(title)
-        path = out / name
-        fig.savefig(path, dpi=100)
-        plt.close(fig)
-        written.append(path)
+        written.append(_save(plt, fig, out / name))
+    ax = _sensor_figure(designer, design_names)
+    written.append(_save(plt, ax.figure, out / "sensor_criterion_by_size.png"))
+    return written
+
+
+def _save(plt, fig, path):
+    """Write ``fig`` to ``path`` and close it; returns ``path``."""
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+
+
+def _calibration_figures(cal, data):
+    """The calibration's figures with their file names and titles, one at a
+    time (each is saved and closed before the next is drawn)."""
+    from skmba.plotting import plot_calibrated_components, plot_posterior, plot_traces
 
     force = np.linspace(*data.X_bounds[0], 60)
     fig = plot_calibrated_components(
@@ -220,7 +225,7 @@ def _figures(out, cal, data, designer, design_names):
         units=data.response_units,
         input_name="tip force F [N]",
     )
-    save(
+    yield (
         fig,
         "calibrated_predictions.png",
         "Calibrated cantilever: model, discrepancy and observations (95 % bands)",
@@ -229,14 +234,20 @@ def _figures(out, cal, data, designer, design_names):
         cal, true_value=data.theta_true, names=["E"], units=["MPa"], limits="posterior"
     )
     fig.set_size_inches(6.4, 4.2)
-    save(fig, "posterior_E.png", "Posterior of Young's modulus")
+    yield fig, "posterior_E.png", "Posterior of Young's modulus"
     fig = plot_traces(cal, names=["E"], units=["MPa"], true_value=data.theta_true)
     # The legend goes below the panel, off the chains and the true value.
     handles, labels = fig.axes[0].get_legend_handles_labels()
     fig.axes[0].get_legend().remove()
     fig.legend(handles, labels, loc="outside lower center", ncols=len(labels))
     fig.set_size_inches(8.0, 3.6)
-    save(fig, "traces_E.png", "Metropolis-Hastings chains of E")
+    yield fig, "traces_E.png", "Metropolis-Hastings chains of E"
+
+
+def _sensor_figure(designer, design_names):
+    """The sensor ranking's axes: best and worst subset of each size."""
+    from skmba.plotting import plot_criterion_by_size
+
     letters = [name.split()[0] for name in design_names]
     ax = plot_criterion_by_size(designer, names=letters)
     ax.set_yscale("log")
@@ -250,10 +261,7 @@ def _figures(out, cal, data, designer, design_names):
         va="bottom",
         bbox={"facecolor": "white", "edgecolor": "0.8"},
     )
-    ax.figure.savefig(out / "sensor_criterion_by_size.png", dpi=100)
-    plt.close(ax.figure)
-    written.append(out / "sensor_criterion_by_size.png")
-    return written
+    return ax
 
 
 def _simulate(settings, n_simulations, seed, steps):
@@ -354,8 +362,6 @@ def _report_posterior(cal, data):
 
     Returns the 95 % credible interval of E.
     """
-    from skmba.calibration._module3_identifiability import IDENTIFIABILITY_THRESHOLD
-
     samples = cal.theta_samples_[:, 0]
     interval = np.quantile(samples, [0.025, 0.975])
     E_true, E_mean = data.theta_true[0], cal.theta_mean_[0]
@@ -369,6 +375,23 @@ def _report_posterior(cal, data):
         f"{E_true / 1e3:.2f} GPa (error {E_mean / E_true - 1:+.1%}, truth "
         f"{'inside' if inside else 'outside'} the interval)"
     )
+    E_effective = _report_confounding(cal, data)
+    _report_identifiability(cal)
+    if not inside:
+        z = abs(E_mean - E_true) / samples.std()
+        shift = E_mean - E_effective
+        _say(
+            f"   The truth is outside the interval: the posterior mean is "
+            f"{abs(shift) / 1e3:.2f} GPa {'below' if shift < 0 else 'above'} the "
+            f"effective modulus, where the confounding alone would put it, and "
+            f"{z:.1f} posterior sd from E*."
+        )
+    return interval
+
+
+def _report_confounding(cal, data):
+    """Explain why the spring and E are confounded, and the size of the
+    discrepancy; returns the effective modulus."""
     # The spring changes both responses by the same fraction as a softer
     # beam: the fixed-support model at this modulus reproduces the real one.
     beam = data.reality
@@ -390,6 +413,13 @@ def _report_posterior(cal, data):
         )
         + " (default prior: half-normal with scale 0.5)."
     )
+    return E_effective
+
+
+def _report_identifiability(cal):
+    """What ``identifiability_`` of E says about the width of its interval."""
+    from skmba.calibration._module3_identifiability import IDENTIFIABILITY_THRESHOLD
+
     ident = cal.identifiability_[0]
     if ident < IDENTIFIABILITY_THRESHOLD:
         _say(
@@ -410,16 +440,6 @@ def _report_posterior(cal, data):
             f"   identifiability_ of E is {ident:.2g}: the data tell E from a "
             "discrepancy of plausible size."
         )
-    if not inside:
-        z = abs(E_mean - E_true) / samples.std()
-        shift = E_mean - E_effective
-        _say(
-            f"   The truth is outside the interval: the posterior mean is "
-            f"{abs(shift) / 1e3:.2f} GPa {'below' if shift < 0 else 'above'} the "
-            f"effective modulus, where the confounding alone would put it, and "
-            f"{z:.1f} posterior sd from E*."
-        )
-    return interval
 
 
 def _report_diagnostics(cal, data, r2, coverage, fit_warnings):

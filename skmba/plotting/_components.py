@@ -186,6 +186,17 @@ def plot_calibrated_components(
     axes = axes_grid(
         ax, (n_rows, 3), (12.0, 0.8 + 2.8 * n_rows), sharex=len(slices) == 1
     )
+    _draw_rows(axes, slices, predictions, truths, observed, (names, units, input_names))
+    return axes[0, 0].figure
+
+
+def _draw_rows(axes, slices, predictions, truths, observed, axis_names):
+    """One row of three panels per response and slice: the bands of
+    ``predictions`` (mean, std of each component), with ``truths`` and the
+    ``observed`` data; ``axis_names`` are the names and units of the responses
+    and the names of the design variables."""
+    names, units, input_names = axis_names
+    q = predictions[0][0].shape[1]
     start = 0
     for b, design_slice in enumerate(slices):
         rows = slice(start, start + len(design_slice.points))
@@ -211,7 +222,6 @@ def plot_calibrated_components(
                 if k == q - 1:
                     a.set_xlabel(slice_label(design_slice, input_names))
                 a.set_ylabel(axis_label(names[k], units[k]))
-    return axes[0, 0].figure
 
 
 def _check_calibrator(calibrator):
