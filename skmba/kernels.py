@@ -1,86 +1,30 @@
 r"""DACE correlation functions as scikit-learn kernels.
 
 The seven correlation families of the DACE toolbox (thesis Table 3.2,
-Eq. 3.6) are implemented as subclasses of
-:class:`sklearn.gaussian_process.kernels.Kernel`.  All of them are products
-over the ``d`` input dimensions of a one-dimensional correlation,
+Eq. 3.6), as subclasses of :class:`sklearn.gaussian_process.kernels.Kernel`.
+Each is a product over the ``d`` input dimensions of a one-dimensional
+correlation of :math:`\Delta_j = x_j - x'_j`, with one *roughness*
+:math:`\omega_j > 0` per input dimension (anisotropic) or a single shared
+one (isotropic). A larger roughness means a faster decay of the
+correlation, i.e. a rougher process.
 
-.. math::
-
-    R(\omega, x, x') = \prod_{j=1}^{d} R_j(\omega_j, \Delta_j),
-    \qquad \Delta_j = x_j - x'_j,
-
-with one *roughness* parameter :math:`\omega_j > 0` per input dimension
-(anisotropic) or a single shared one (isotropic).  A larger roughness means a
-faster decay of the correlation, i.e. a rougher process.  With
-:math:`\zeta_j = \omega_j |\Delta_j|` the families are
-
-- :class:`Exp`: :math:`\exp(-\omega_j |\Delta_j|)`; ω in 1/L.
-- :class:`GeneralizedExp`: :math:`\exp(-\omega_j |\Delta_j|^p)` with one
-  shared power :math:`0 < p \le 2`; ω in 1/L^p.
-- :class:`Gauss`: :math:`\exp(-\omega_j \Delta_j^2)`; ω in 1/L².
-- :class:`Linear`: :math:`\max(0, 1 - \zeta_j)`; ω in 1/L.
-- :class:`Spherical`: :math:`1 - 1.5 z + 0.5 z^3`,
-  :math:`z = \min(1, \zeta_j)`; ω in 1/L.
-- :class:`Cubic`: :math:`1 - 3 z^2 + 2 z^3`, :math:`z = \min(1, \zeta_j)`;
-  ω in 1/L.
-- :class:`Spline`: :math:`\varsigma(\zeta_j)`; ω in 1/L.
-
-where L is the unit of the inputs and the spline is
-
-.. math::
-
-    \varsigma(\zeta) = \begin{cases}
-        1 - 15\zeta^2 + 30\zeta^3 & 0 \le \zeta \le 0.2 \\
-        1.25 (1 - \zeta)^3          & 0.2 < \zeta < 1 \\
-        0                           & \zeta \ge 1.
-    \end{cases}
-
-``Linear``, ``Spherical``, ``Cubic`` and ``Spline`` have compact support:
-the correlation is exactly zero once :math:`\omega_j |\Delta_j| \ge 1`.
-
-Positive definiteness: a product of one-dimensional positive-definite
-correlations, each acting on its own coordinate, is positive definite in any
-dimension (Schur product theorem).  The profiles of ``Exp``,
-``GeneralizedExp``, ``Gauss``, ``Linear``, ``Spherical`` and ``Spline`` are
-positive definite on the real line, hence so are their products.  (Used as
-*radial* functions of the Euclidean distance, ``Linear`` and ``Spline`` are
-only guaranteed positive definite in one dimension and ``Spherical`` up to
-three.)  The ``Cubic`` profile is **not** positive definite, not even in one
-dimension: its Fourier transform :math:`12(1-\cos k)/k^4 - 6\sin k/k^3` takes
-negative values, and correlation matrices on dense point sets can have
-negative eigenvalues.  It is provided for compatibility with DACE; use it
-with a nugget (``noise=True``) or prefer ``Spline``.
-
-Relation to scikit-learn's length scales
-----------------------------------------
-``Gauss(roughness=w)`` equals ``RBF(length_scale=l)`` with
-:math:`\omega = 1 / (2 l^2)`, i.e. :math:`l = 1/\sqrt{2\omega}`; the
-gradients are related by :math:`\partial/\partial\log\omega =
--\tfrac12\,\partial/\partial\log l`.  In one dimension ``Exp(roughness=w)``
-equals ``Matern(length_scale=1/w, nu=0.5)``; in several dimensions the DACE
-product uses the L1 distance whereas ``Matern`` uses the Euclidean one.
-
-Hyperparameters and gradients
------------------------------
-As for every scikit-learn kernel, ``theta`` holds the natural logarithm of
-the non-fixed hyperparameters and ``__call__(X, eval_gradient=True)``
-returns the analytic derivative of ``K`` with respect to ``theta``, i.e.
-:math:`\omega_j \partial K / \partial \omega_j` (and
-:math:`p\, \partial K / \partial p` for ``GeneralizedExp``).  Where a
-profile is not differentiable in :math:`\zeta` (``Linear`` at
-:math:`\zeta = 1`) the one-sided derivative that is zero outside the
-support is used, so pairs exactly at the edge of the support contribute no
-gradient.  ``Spherical``, ``Cubic`` and ``Spline`` are continuously
-differentiable at :math:`\zeta = 1` (and the spline at its breakpoint
-:math:`\zeta = 0.2`), so no convention is needed there.  For ``Exp`` the
-kink at :math:`\Delta = 0` is in the inputs, not in :math:`\omega`; the
-log-roughness derivative is zero there.
+- :class:`Exp`, :class:`GeneralizedExp` and :class:`Gauss`: exponential
+  profiles (common code in :class:`skmba._core.dace.ExponentialProfile`);
+- :class:`Linear`, :class:`Spherical`, :class:`Cubic` and :class:`Spline`:
+  compact support, the correlation is exactly zero once
+  :math:`\omega_j |\Delta_j| \ge 1` (common code in
+  :class:`skmba._core.dace.DACECorrelation`);
+- :func:`check_correlation`: that a kernel, including products with
+  scikit-learn kernels, has the unit diagonal of a correlation, as
+  :class:`~skmba.MultiResponseGP` and the calibrators require.
 
 All kernels are normalised (unit diagonal), so they are correlations: the
 process variances are estimated separately (``sigma2_`` of
-``MultiResponseGP``).  :func:`check_correlation` verifies that property for
-any kernel, including products with scikit-learn kernels.
+``MultiResponseGP``). The formulas, the smoothness of each family and when
+to use it are in the User Guide (:ref:`correlation-families`); ``Cubic``
+is not positive definite, and is kept for compatibility with DACE. Why the
+others are, their relation to scikit-learn's length scales and the
+conventions of their gradients: docs/internals.rst, section skmba.kernels.
 """
 
 import numpy as np

@@ -74,9 +74,8 @@ WARM_START_SAMPLES = 1000
 
 #: Random restarts of the kernel hyperparameters are drawn log-uniformly
 #: within this many log units of the starting values (a factor 100 either
-#: way), and within the bounds: across the whole of wide bounds (eight
-#: decades for the default kernel) most starts land where the correlation
-#: is the identity or singular, and the search stays there.
+#: way), and within the bounds (the rejected variant, restarts across the
+#: whole bounds: docs/internals.rst, section skmba.gp._search).
 RESTART_SPAN = np.log(100.0)
 
 

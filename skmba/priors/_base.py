@@ -73,10 +73,10 @@ def _sobol(d, n, random_state):
 class Prior:
     """Base class of the priors of the calibration parameters.
 
-    Do not instantiate it: use :func:`~skmba.priors._theta.check_prior`, or one of
-    :class:`~skmba.priors._theta.IndependentPrior`,
-    :class:`~skmba.priors._theta.GaussianPrior` and
-    :class:`~skmba.priors._theta.GenericPrior`. All share this interface.
+    Do not instantiate it: use one of :class:`~skmba.priors.IndependentPrior`,
+    :class:`~skmba.priors.GaussianPrior` and :class:`~skmba.priors.GenericPrior`
+    (what an estimator's ``prior=`` becomes once checked, by
+    ``check_prior`` of :mod:`skmba.priors._theta`). All share this interface.
     """
 
     #: Whether :meth:`integration_nodes` uses quadrature or quasi-Monte Carlo
@@ -182,8 +182,8 @@ class Prior:
 
         ``E_prior[f(θ)] ≈ sum_k weights[k] * f(nodes[k])``. With one
         parameter and a quantile function
-        (:class:`~skmba.priors._theta.IndependentPrior`,
-        :class:`~skmba.priors._theta.GaussianPrior`), this is the prior-quantile
+        (:class:`~skmba.priors.IndependentPrior`,
+        :class:`~skmba.priors.GaussianPrior`), this is the prior-quantile
         Gauss-Legendre rule (Gauss-Hermite for a normal prior):
         ``E[f(θ)] = ∫_0^1 f(ppf(u)) du`` is computed with the
         ``n``-point Gauss-Legendre rule mapped to ``(0, 1)`` (nodes
@@ -193,7 +193,7 @@ class Prior:
         unbounded. With several parameters, ``n`` is rounded up to a power
         of two and the nodes are a scrambled Sobol sequence mapped by
         :meth:`transform`, with equal weights. A
-        :class:`~skmba.priors._theta.GenericPrior` uses ``n`` draws of :meth:`rvs`
+        :class:`~skmba.priors.GenericPrior` uses ``n`` draws of :meth:`rvs`
         with equal weights (Monte Carlo).
 
         Parameters
@@ -274,8 +274,8 @@ class Prior:
         """Prior probability of the box ``lower <= θ <= upper``.
 
         Used to check that simulations cover the prior. Exact for
-        :class:`~skmba.priors._theta.IndependentPrior` (product of marginal CDF
-        differences) and one-parameter :class:`~skmba.priors._theta.GaussianPrior`;
+        :class:`~skmba.priors.IndependentPrior` (product of marginal CDF
+        differences) and one-parameter :class:`~skmba.priors.GaussianPrior`;
         otherwise the fraction of 20000 draws with the fixed seed 0 inside
         the box (standard error below 0.004), so the result is reproducible.
 

@@ -93,7 +93,7 @@ class IndependentPrior(Prior):
     Examples
     --------
     >>> from scipy.stats import norm, uniform
-    >>> from skmba.priors._theta import IndependentPrior
+    >>> from skmba.priors import IndependentPrior
     >>> prior = IndependentPrior([uniform(0, 2), norm(1, 0.5)])
     >>> prior.logpdf([[1.0, 1.0], [3.0, 1.0]]).round(4)
     array([-0.9189,    -inf])
@@ -191,7 +191,7 @@ class GaussianPrior(Prior):
     Examples
     --------
     >>> from scipy.stats import multivariate_normal
-    >>> from skmba.priors._theta import GaussianPrior
+    >>> from skmba.priors import GaussianPrior
     >>> prior = GaussianPrior(multivariate_normal([0.0, 1.0], [[1.0, 0.5], [0.5, 2.0]]))
     >>> prior.logpdf([0.0, 1.0]).round(4)
     array([-2.1177])
@@ -306,7 +306,7 @@ class GenericPrior(Prior):
     --------
     >>> import numpy as np
     >>> from scipy.stats import multivariate_t
-    >>> from skmba.priors._theta import GenericPrior
+    >>> from skmba.priors import GenericPrior
     >>> prior = GenericPrior(multivariate_t([0.0, 0.0], np.eye(2), df=5))
     >>> prior.dim, prior.rvs(4, random_state=0).shape
     (2, (4, 2))
