@@ -45,7 +45,7 @@ from skmba.calibration._field_data import (
 )
 from skmba.calibration._module2_prior_integral import one_parameter_rule
 from skmba.calibration._module3_identifiability import warn_if_confounded
-from skmba.calibration._module4_prediction import PredictionRule, predict_component
+from skmba.calibration._module4_prediction import CalibratedPredictionMixin
 from skmba.calibration._pipeline import (
     OPTIONAL_FITTED,
     fitted_attributes,
@@ -60,15 +60,16 @@ from skmba.calibration._simulations import (
     given_simulations,
     kept_simulator_runs,
 )
-from skmba.calibration._summary import (
-    calibration_table,
-    calibration_text,
-    inference_data,
-    parameter_names,
-)
+from skmba.calibration._summary import CalibrationSummaryMixin, parameter_names
 
 
-class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
+class ModularBayesCalibrator(
+    CalibratedPredictionMixin,
+    CalibrationSummaryMixin,
+    MultiOutputMixin,
+    RegressorMixin,
+    BaseEstimator,
+):
     """Bayesian calibration of a computer model with model discrepancy.
 
     Read more in the :ref:`User Guide <user-guide-calibration>`.
@@ -536,101 +537,6 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         out = np.array([self._log_posterior(t) for t in theta])
         return float(out[0]) if single else out
 
-    def _predict_component(self, X, component, return_std):
-        check_is_fitted(self, "theta_mean_")
-        X = validate_data(self, X, reset=False).astype(float)
-        scaler, rule = self._scaler, self._prediction_rule
-        mean, var = predict_component(
-            self.global_model_,
-            PredictionRule(scaler.theta(rule.thetas), rule.weights, rule.draws),
-            scaler.x(X),
-            component,
-            return_std=return_std,
-            n_jobs=self.n_jobs,
-        )
-        mean = scaler.y_to_user(mean, centred=component != "discrepancy")
-        std = None if var is None else np.sqrt(var) * scaler.y_scale
-        if self._y_ndim == 1:
-            mean = mean[:, 0]
-            std = None if std is None else std[:, 0]
-        return mean if std is None else (mean, std)
-
-    # ------------------------------------------------ summary and ArviZ
-    def to_inference_data(self, *, n_prior_draws=None, random_state=0):
-        """The posterior, prior and field data as an ArviZ object.
-
-        Built with ``arviz.from_dict`` (an ``InferenceData`` with ArviZ 0.x,
-        a ``DataTree`` with 1.x) with the groups ``posterior`` (one variable
-        per name of ``parameter_names_``, dims (chain, draw); with
-        quadrature one pseudo-chain of independent draws, said in its
-        ``note`` attribute), ``sample_stats`` (MCMC: ``lp``,
-        ``acceptance_rate``), ``prior``, ``observed_data`` and
-        ``constant_data``. Read more in :ref:`user-guide-diagnostics`.
-
-        Parameters
-        ----------
-        n_prior_draws : int, default=None
-            Prior draws; None means as many as posterior draws.
-        random_state : int, Generator or None, default=0
-            Seeds the prior draws (and the order of quadrature draws).
-
-        Returns
-        -------
-        arviz.InferenceData or xarray.DataTree
-
-        Raises
-        ------
-        ImportError
-            Without ArviZ: install the extra, ``pip install "skmba[arviz]"``.
-        """
-        check_is_fitted(self, "theta_mean_")
-        return inference_data(self, n_prior_draws, random_state)
-
-    def summary(self, kind="table"):
-        """The posterior of each calibration parameter.
-
-        Parameters
-        ----------
-        kind : {"table", "text"}, default="table"
-            ``"table"``: one row per parameter with ``mean``, ``sd``,
-            ``2.5%``, ``97.5%``, ``prior_mean``, ``prior_sd``, ``sd_ratio``
-            (posterior over prior sd), ``r_hat``, ``ess_bulk`` (NaN with
-            quadrature) and ``identifiability`` when the calibrator has it.
-            ``"text"``: the same on one line, for logs.
-
-        Returns
-        -------
-        pandas.DataFrame, numpy structured array or str
-            A DataFrame indexed by parameter name when pandas is installed,
-            else a structured array with a first field ``parameter``.
-        """
-        check_is_fitted(self, "theta_mean_")
-        if kind == "text":
-            return calibration_text(self)
-        if kind != "table":
-            raise ValueError(f'kind must be "table" or "text"; got {kind!r}.')
-        return calibration_table(self)
-
-    def predict(self, X, return_std=False):
-        """Calibrated prediction of a new field measurement (module 4).
-
-        The mean and standard deviation of ``y_e(x) = y_m(x, theta) + delta(x)
-        + eps`` averaged over the posterior of ``theta`` (laws of total
-        expectation and variance, Eqs. 4.35-4.41); the standard deviation
-        includes the measurement noise.
-
-        Parameters
-        ----------
-        X : array-like of shape (s, d)
-        return_std : bool, default=False
-
-        Returns
-        -------
-        mean : ndarray of shape (s,) or (s, q)
-        std : ndarray, same shape (only when ``return_std``)
-        """
-        return self._predict_component(X, "observation", return_std)
-
     def score(self, X, y, sample_weight=None):
         """R² of :meth:`predict` on ``y``, over the measured entries.
 
@@ -651,25 +557,3 @@ class ModularBayesCalibrator(MultiOutputMixin, RegressorMixin, BaseEstimator):
         y = checked_field_y(y)
         pred = np.asarray(self.predict(X), dtype=float).reshape(len(y), -1)
         return measured_r2(y.reshape(len(y), -1), pred, sample_weight)
-
-    def predict_reality(self, X, return_std=False):
-        """Prediction of the true process ``y_m(x, theta) + delta(x)`` (no noise)."""
-        return self._predict_component(X, "reality", return_std)
-
-    def predict_model(self, X, return_std=False):
-        """Prediction of the model output ``y_m(x, theta)`` over the posterior.
-
-        Conditional on all data (simulations and field data) at each
-        ``theta``, then averaged over the posterior (Eqs. 4.33-4.34).
-        """
-        return self._predict_component(X, "model", return_std)
-
-    def predict_discrepancy(self, X, return_std=False):
-        """Prediction of the discrepancy ``delta(x)`` over the posterior.
-
-        The conditional moments of ``delta`` given all data at each
-        ``theta`` (Eqs. 4.42-4.43, with the global model), averaged over the
-        posterior. ``predict_model + predict_discrepancy`` equals
-        :meth:`predict_reality` in the mean.
-        """
-        return self._predict_component(X, "discrepancy", return_std)

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 from joblib import Parallel, delayed
 from scipy import linalg, special
+from sklearn.utils.validation import check_is_fitted, validate_data
 
 from skmba._core.linalg import (
     FLOAT_BYTES,
@@ -279,3 +280,74 @@ def predict_component(model, rule, Xs, component, *, return_std, n_jobs=None):
         w, (means - mean) ** 2, axes=1
     )
     return mean, var
+
+
+class CalibratedPredictionMixin:
+    """Module 4 as methods of :class:`~skmba.ModularBayesCalibrator`.
+
+    The predictions of the observed process, the true process, the model
+    and the discrepancy, each averaged over the posterior by
+    :func:`predict_component`, from what the calibrator's ``fit`` stored:
+    the global model ``global_model_``, the scaler and the module-4 rule.
+    """
+
+    def _predict_component(self, X, component, return_std):
+        check_is_fitted(self, "theta_mean_")
+        X = validate_data(self, X, reset=False).astype(float)
+        scaler, rule = self._scaler, self._prediction_rule
+        mean, var = predict_component(
+            self.global_model_,
+            PredictionRule(scaler.theta(rule.thetas), rule.weights, rule.draws),
+            scaler.x(X),
+            component,
+            return_std=return_std,
+            n_jobs=self.n_jobs,
+        )
+        mean = scaler.y_to_user(mean, centred=component != "discrepancy")
+        std = None if var is None else np.sqrt(var) * scaler.y_scale
+        if self._y_ndim == 1:
+            mean = mean[:, 0]
+            std = None if std is None else std[:, 0]
+        return mean if std is None else (mean, std)
+
+    def predict(self, X, return_std=False):
+        """Calibrated prediction of a new field measurement (module 4).
+
+        The mean and standard deviation of ``y_e(x) = y_m(x, theta) + delta(x)
+        + eps`` averaged over the posterior of ``theta`` (laws of total
+        expectation and variance, Eqs. 4.35-4.41); the standard deviation
+        includes the measurement noise.
+
+        Parameters
+        ----------
+        X : array-like of shape (s, d)
+        return_std : bool, default=False
+
+        Returns
+        -------
+        mean : ndarray of shape (s,) or (s, q)
+        std : ndarray, same shape (only when ``return_std``)
+        """
+        return self._predict_component(X, "observation", return_std)
+
+    def predict_reality(self, X, return_std=False):
+        """Prediction of the true process ``y_m(x, theta) + delta(x)`` (no noise)."""
+        return self._predict_component(X, "reality", return_std)
+
+    def predict_model(self, X, return_std=False):
+        """Prediction of the model output ``y_m(x, theta)`` over the posterior.
+
+        Conditional on all data (simulations and field data) at each
+        ``theta``, then averaged over the posterior (Eqs. 4.33-4.34).
+        """
+        return self._predict_component(X, "model", return_std)
+
+    def predict_discrepancy(self, X, return_std=False):
+        """Prediction of the discrepancy ``delta(x)`` over the posterior.
+
+        The conditional moments of ``delta`` given all data at each
+        ``theta`` (Eqs. 4.42-4.43, with the global model), averaged over the
+        posterior. ``predict_model + predict_discrepancy`` equals
+        :meth:`predict_reality` in the mean.
+        """
+        return self._predict_component(X, "discrepancy", return_std)

@@ -244,16 +244,9 @@ def run_simulator(simulator, X, theta, q):
 
 
 # ------------------------------------------------------------ the runs
-def given_simulations(X, q, X_sim, theta_sim, y_sim):
-    """The precomputed simulation dataset, checked; None when not given."""
-    given = [a is not None for a in (X_sim, theta_sim, y_sim)]
-    if not any(given):
-        return None
-    if not all(given):
-        raise ValueError(
-            "Pass X_sim, theta_sim and y_sim together (a precomputed "
-            "simulation dataset), or none of them."
-        )
+def _simulation_arrays(X_sim, theta_sim, y_sim):
+    """The three simulation tables as 2-D float arrays (C order) with as
+    many rows each, at least one."""
     check_2d(X_sim, "X_sim", "(n_simulations, d)")
     check_2d(theta_sim, "theta_sim", "(n_simulations, r)")
     y_array = as_array(y_sim)
@@ -262,7 +255,7 @@ def given_simulations(X, q, X_sim, theta_sim, y_sim):
             f"y_sim must be an array of shape (n_simulations, q), got shape "
             f"{y_array.shape}."
         )
-    arrays = {}
+    arrays = []
     for name, A in (("X_sim", X_sim), ("theta_sim", theta_sim), ("y_sim", y_sim)):
         A = check_array(
             A,
@@ -273,8 +266,8 @@ def given_simulations(X, q, X_sim, theta_sim, y_sim):
             dtype=float,
         )
         # C order whatever the input's (a DataFrame gives Fortran order).
-        arrays[name] = np.ascontiguousarray(A if A.ndim == 2 else A.reshape(-1, 1))
-    X_sim, theta_sim, y_sim = arrays["X_sim"], arrays["theta_sim"], arrays["y_sim"]
+        arrays.append(np.ascontiguousarray(A if A.ndim == 2 else A.reshape(-1, 1)))
+    X_sim, theta_sim, y_sim = arrays
     if not len(X_sim) == len(theta_sim) == len(y_sim):
         raise ValueError(
             "X_sim, theta_sim and y_sim must have the same number of rows, "
@@ -285,9 +278,23 @@ def given_simulations(X, q, X_sim, theta_sim, y_sim):
             "X_sim, theta_sim and y_sim are empty (0 simulations): pass the "
             "simulation dataset, or None and a simulator."
         )
-    for name in ("X_sim", "theta_sim"):
+    return X_sim, theta_sim, y_sim
+
+
+def given_simulations(X, q, X_sim, theta_sim, y_sim):
+    """The precomputed simulation dataset, checked; None when not given."""
+    given = [a is not None for a in (X_sim, theta_sim, y_sim)]
+    if not any(given):
+        return None
+    if not all(given):
+        raise ValueError(
+            "Pass X_sim, theta_sim and y_sim together (a precomputed "
+            "simulation dataset), or none of them."
+        )
+    X_sim, theta_sim, y_sim = _simulation_arrays(X_sim, theta_sim, y_sim)
+    for name, A in (("X_sim", X_sim), ("theta_sim", theta_sim)):
         check_finite_rows(
-            arrays[name],
+            A,
             name,
             "the inputs of every run must be known; drop these rows from "
             "X_sim, theta_sim and y_sim alike (a failed run is a NaN row of "

@@ -1,23 +1,17 @@
 """Summaries of fitted estimators: tables, a line for logs, ArviZ export.
 
-The functions here read a fitted estimator's public attributes only, so
-that the estimators' ``summary`` and ``to_inference_data`` methods stay
-thin:
-
-* :func:`calibration_table` and :func:`calibration_text`: the posterior of
-  each calibration parameter of a :class:`~skmba.ModularBayesCalibrator`
-  (mean, sd, 95 % interval, prior mean and sd, R-hat, bulk ESS) as a table
-  or a one-line text;
-* :func:`inference_data`: the calibrator's chains, prior draws and field
-  data as an ArviZ ``InferenceData`` (ArviZ 0.x) or ``DataTree`` (ArviZ
-  1.x), built with ``arviz.from_dict``;
+* :class:`CalibrationSummaryMixin`: the calibrator's ``summary`` (the
+  posterior of each calibration parameter: mean, sd, 95 % interval, prior
+  mean and sd, R-hat, bulk ESS, identifiability) as a table or one line of
+  text, and ``to_inference_data`` (chains, prior draws and field data as an
+  ArviZ ``InferenceData`` with ArviZ 0.x or ``DataTree`` with 1.x, through
+  ``arviz.from_dict``), from its public fitted attributes;
 * :func:`design_table` and :func:`jackknife_mcse`: the ranking of the
   sensor subsets of a :class:`~skmba.PreposteriorDesigner` with the Monte
-  Carlo standard error of each score.
-
-Tables are pandas ``DataFrame`` objects when pandas is installed and numpy
-structured arrays otherwise (the same columns; the row labels become a
-first field).
+  Carlo standard error of each score, from its scores;
+* :func:`table`: a pandas ``DataFrame`` when pandas is installed, a numpy
+  structured array otherwise (the same columns; the row labels become a
+  first field).
 
 Examples
 --------
@@ -32,11 +26,12 @@ import math
 import warnings
 
 import numpy as np
+from sklearn.utils.validation import check_is_fitted
 
-#: What to install for :func:`inference_data`.
+#: What to install for ``to_inference_data``.
 ARVIZ_EXTRA = 'pip install "skmba[arviz]"'
 
-#: The columns of :func:`calibration_table`, in order.
+#: The columns of the calibrator's ``summary()``, in order.
 CALIBRATION_COLUMNS = (
     "mean",
     "sd",
@@ -80,7 +75,7 @@ def _pandas():
     return pandas
 
 
-def _table(index_name, index, columns):
+def table(index_name, index, columns):
     """A DataFrame (pandas) or a structured array of named columns."""
     pandas = _pandas()
     if pandas is not None:
@@ -97,74 +92,6 @@ def _table(index_name, index, columns):
 
 
 # ------------------------------------------------------------- calibrator
-def _posterior_columns(cal):
-    """The columns of :func:`calibration_table` as a dict of (r,) arrays."""
-    samples = cal.theta_samples_
-    r = samples.shape[1]
-    sd = np.sqrt(np.diag(cal.theta_cov_))
-    prior_sd = np.sqrt(np.diag(cal.prior_.cov()))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = sd / prior_sd
-    nan = np.full(r, np.nan)
-    columns = {
-        "mean": np.asarray(cal.theta_mean_, dtype=float),
-        "sd": sd,
-        "2.5%": np.quantile(samples, 0.025, axis=0),
-        "97.5%": np.quantile(samples, 0.975, axis=0),
-        "prior_mean": cal.prior_.mean(),
-        "prior_sd": prior_sd,
-        "sd_ratio": ratio,
-        "r_hat": np.asarray(getattr(cal, "rhat_", nan), dtype=float),
-        "ess_bulk": np.asarray(getattr(cal, "ess_", nan), dtype=float),
-        "identifiability": np.asarray(cal.identifiability_, dtype=float),
-        "robust_2.5%": cal.theta_robust_interval_[:, 0],
-        "robust_97.5%": cal.theta_robust_interval_[:, 1],
-    }
-    return columns
-
-
-def calibration_table(cal):
-    """The posterior of each calibration parameter, one row per parameter.
-
-    See :meth:`skmba.ModularBayesCalibrator.summary`.
-
-    Parameters
-    ----------
-    cal : fitted ModularBayesCalibrator
-
-    Returns
-    -------
-    table : pandas.DataFrame or numpy structured array
-    """
-    return _table("parameter", cal.parameter_names_, _posterior_columns(cal))
-
-
-def calibration_text(cal):
-    """One line for logs: each parameter's mean, sd, interval and diagnostics.
-
-    See :meth:`skmba.ModularBayesCalibrator.summary`.
-    """
-    columns = _posterior_columns(cal)
-    parts = []
-    for j, name in enumerate(cal.parameter_names_):
-        text = (
-            f"{name} = {columns['mean'][j]:.5g} ± {columns['sd'][j]:.3g} "
-            f"[95% {columns['2.5%'][j]:.5g}, {columns['97.5%'][j]:.5g}], "
-            f"sd/prior sd {columns['sd_ratio'][j]:.3g}"
-        )
-        if not math.isnan(columns["r_hat"][j]):
-            text += (
-                f", R-hat {columns['r_hat'][j]:.3f}, ESS {columns['ess_bulk'][j]:.0f}"
-            )
-        text += (
-            f", identifiability {columns['identifiability'][j]:.3g}, robust 95% "
-            f"[{columns['robust_2.5%'][j]:.5g}, {columns['robust_97.5%'][j]:.5g}]"
-        )
-        parts.append(text)
-    method = "MCMC" if hasattr(cal, "theta_chains_") else "quadrature"
-    return f"ModularBayesCalibrator ({method}): " + "; ".join(parts)
-
-
 def _import_arviz():
     """The arviz module, or an ImportError that names the extra."""
     try:
@@ -180,14 +107,6 @@ def _import_arviz():
     return arviz
 
 
-def _data_names(cal, attribute, prefix, n):
-    """Names of the field responses or inputs: recorded ones, else y0, y1..."""
-    names = getattr(cal, attribute, None)
-    if names is None or len(names) != n:
-        return [f"{prefix}{k}" for k in range(n)]
-    return [str(name) for name in names]
-
-
 #: The note on the posterior group of a quadrature fit.
 QUADRATURE_NOTE = (
     "One-parameter posterior computed by adaptive Gauss-Legendre quadrature; "
@@ -197,56 +116,168 @@ QUADRATURE_NOTE = (
 )
 
 
-def inference_data(cal, n_prior_draws=None, random_state=0):
-    """A fitted calibrator as an ArviZ object, through ``arviz.from_dict``.
+class CalibrationSummaryMixin:
+    """``summary`` and ``to_inference_data`` of
+    :class:`~skmba.ModularBayesCalibrator`, from its public fitted attributes."""
 
-    See :meth:`skmba.ModularBayesCalibrator.to_inference_data`.
-    """
-    arviz = _import_arviz()
-    rng = np.random.default_rng(random_state)
-    names = list(cal.parameter_names_)
-    if hasattr(cal, "theta_chains_"):
-        chains = np.asarray(cal.theta_chains_, dtype=float)
-        stats = {
-            "lp": np.asarray(cal.theta_log_posterior_, dtype=float),
-            "acceptance_rate": np.broadcast_to(
-                np.asarray(cal.acceptance_rate_, dtype=float)[:, None],
-                chains.shape[:2],
-            ).copy(),
+    def to_inference_data(self, *, n_prior_draws=None, random_state=0):
+        """The posterior, prior and field data as an ArviZ object.
+
+        Built with ``arviz.from_dict`` (an ``InferenceData`` with ArviZ 0.x,
+        a ``DataTree`` with 1.x) with the groups ``posterior`` (one variable
+        per name of ``parameter_names_``, dims (chain, draw); with
+        quadrature one pseudo-chain of independent draws, said in its
+        ``note`` attribute), ``sample_stats`` (MCMC: ``lp``,
+        ``acceptance_rate``), ``prior``, ``observed_data`` and
+        ``constant_data``. Read more in :ref:`user-guide-diagnostics`.
+
+        Parameters
+        ----------
+        n_prior_draws : int, default=None
+            Prior draws; None means as many as posterior draws.
+        random_state : int, Generator or None, default=0
+            Seeds the prior draws (and the order of quadrature draws).
+
+        Returns
+        -------
+        arviz.InferenceData or xarray.DataTree
+
+        Raises
+        ------
+        ImportError
+            Without ArviZ: install the extra, ``pip install "skmba[arviz]"``.
+        """
+        check_is_fitted(self, "theta_mean_")
+        return self._inference_data(n_prior_draws, random_state)
+
+    def summary(self, kind="table"):
+        """The posterior of each calibration parameter.
+
+        Parameters
+        ----------
+        kind : {"table", "text"}, default="table"
+            ``"table"``: one row per parameter with ``mean``, ``sd``,
+            ``2.5%``, ``97.5%``, ``prior_mean``, ``prior_sd``, ``sd_ratio``
+            (posterior over prior sd), ``r_hat``, ``ess_bulk`` (NaN with
+            quadrature) and ``identifiability`` when the calibrator has it.
+            ``"text"``: the same on one line, for logs.
+
+        Returns
+        -------
+        pandas.DataFrame, numpy structured array or str
+            A DataFrame indexed by parameter name when pandas is installed,
+            else a structured array with a first field ``parameter``.
+        """
+        check_is_fitted(self, "theta_mean_")
+        if kind == "text":
+            return self._summary_text()
+        if kind != "table":
+            raise ValueError(f'kind must be "table" or "text"; got {kind!r}.')
+        return table("parameter", self.parameter_names_, self._posterior_columns())
+
+    def _posterior_columns(self):
+        """The columns of :meth:`summary` as a dict of (r,) arrays."""
+        samples = self.theta_samples_
+        r = samples.shape[1]
+        sd = np.sqrt(np.diag(self.theta_cov_))
+        prior_sd = np.sqrt(np.diag(self.prior_.cov()))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = sd / prior_sd
+        nan = np.full(r, np.nan)
+        columns = {
+            "mean": np.asarray(self.theta_mean_, dtype=float),
+            "sd": sd,
+            "2.5%": np.quantile(samples, 0.025, axis=0),
+            "97.5%": np.quantile(samples, 0.975, axis=0),
+            "prior_mean": self.prior_.mean(),
+            "prior_sd": prior_sd,
+            "sd_ratio": ratio,
+            "r_hat": np.asarray(getattr(self, "rhat_", nan), dtype=float),
+            "ess_bulk": np.asarray(getattr(self, "ess_", nan), dtype=float),
+            "identifiability": np.asarray(self.identifiability_, dtype=float),
+            "robust_2.5%": self.theta_robust_interval_[:, 0],
+            "robust_97.5%": self.theta_robust_interval_[:, 1],
         }
-        attrs = {"sampler": "Metropolis-Hastings (skmba)"}
-    else:
-        order = rng.permutation(len(cal.theta_samples_))
-        chains = np.asarray(cal.theta_samples_, dtype=float)[order][np.newaxis]
-        stats = None
-        attrs = {"sampler": "quadrature (skmba)", "note": QUADRATURE_NOTE}
-    n_draws = chains.shape[0] * chains.shape[1]
-    prior_draws = cal.prior_.rvs(
-        n_draws if n_prior_draws is None else int(n_prior_draws), random_state=rng
-    )
-    y = np.asarray(cal.y_obs_, dtype=float).reshape(len(cal.X_obs_), -1)
-    X = np.asarray(cal.X_obs_, dtype=float)
-    responses = _data_names(cal, "response_names_", "y", y.shape[1])
-    inputs = _data_names(cal, "feature_names_in_", "x", X.shape[1])
-    groups = {
-        "posterior": {name: chains[:, :, j] for j, name in enumerate(names)},
-        "sample_stats": stats,
-        "prior": {name: prior_draws[np.newaxis, :, j] for j, name in enumerate(names)},
-        "observed_data": {name: y[:, k] for k, name in enumerate(responses)},
-        "constant_data": {name: X[:, k] for k, name in enumerate(inputs)},
-    }
-    # A data variable named like a parameter keeps ArviZ's default dimension.
-    dims = {
-        name: ["observation"] for name in [*responses, *inputs] if name not in names
-    }
-    coords = {"observation": np.arange(len(X))}
-    groups = {group: data for group, data in groups.items() if data is not None}
-    if int(arviz.__version__.split(".")[0]) >= 1:
-        result = arviz.from_dict(groups, dims=dims, coords=coords)  # a DataTree
-    else:
-        result = arviz.from_dict(**groups, dims=dims, coords=coords)
-    result["posterior"].attrs.update(inference_library="skmba", **attrs)
-    return result
+        return columns
+
+    def _summary_text(self):
+        """One line for logs: each parameter's mean, sd, interval and
+        diagnostics (``summary(kind="text")``)."""
+        columns = self._posterior_columns()
+        parts = []
+        for j, name in enumerate(self.parameter_names_):
+            text = (
+                f"{name} = {columns['mean'][j]:.5g} ± {columns['sd'][j]:.3g} "
+                f"[95% {columns['2.5%'][j]:.5g}, {columns['97.5%'][j]:.5g}], "
+                f"sd/prior sd {columns['sd_ratio'][j]:.3g}"
+            )
+            if not math.isnan(columns["r_hat"][j]):
+                r_hat, ess = columns["r_hat"][j], columns["ess_bulk"][j]
+                text += f", R-hat {r_hat:.3f}, ESS {ess:.0f}"
+            text += (
+                f", identifiability {columns['identifiability'][j]:.3g}, robust 95% "
+                f"[{columns['robust_2.5%'][j]:.5g}, {columns['robust_97.5%'][j]:.5g}]"
+            )
+            parts.append(text)
+        method = "MCMC" if hasattr(self, "theta_chains_") else "quadrature"
+        return f"ModularBayesCalibrator ({method}): " + "; ".join(parts)
+
+    def _data_names(self, attribute, prefix, n):
+        """Names of the field responses or inputs: recorded ones, else y0, y1..."""
+        names = getattr(self, attribute, None)
+        if names is None or len(names) != n:
+            return [f"{prefix}{k}" for k in range(n)]
+        return [str(name) for name in names]
+
+    def _inference_data(self, n_prior_draws=None, random_state=0):
+        """The fitted calibrator as an ArviZ object (``to_inference_data``)."""
+        arviz = _import_arviz()
+        rng = np.random.default_rng(random_state)
+        names = list(self.parameter_names_)
+        if hasattr(self, "theta_chains_"):
+            chains = np.asarray(self.theta_chains_, dtype=float)
+            stats = {
+                "lp": np.asarray(self.theta_log_posterior_, dtype=float),
+                "acceptance_rate": np.broadcast_to(
+                    np.asarray(self.acceptance_rate_, dtype=float)[:, None],
+                    chains.shape[:2],
+                ).copy(),
+            }
+            attrs = {"sampler": "Metropolis-Hastings (skmba)"}
+        else:
+            order = rng.permutation(len(self.theta_samples_))
+            chains = np.asarray(self.theta_samples_, dtype=float)[order][np.newaxis]
+            stats = None
+            attrs = {"sampler": "quadrature (skmba)", "note": QUADRATURE_NOTE}
+        n_draws = chains.shape[0] * chains.shape[1]
+        prior_draws = self.prior_.rvs(
+            n_draws if n_prior_draws is None else int(n_prior_draws), random_state=rng
+        )
+        y = np.asarray(self.y_obs_, dtype=float).reshape(len(self.X_obs_), -1)
+        X = np.asarray(self.X_obs_, dtype=float)
+        responses = self._data_names("response_names_", "y", y.shape[1])
+        inputs = self._data_names("feature_names_in_", "x", X.shape[1])
+        groups = {
+            "posterior": {name: chains[:, :, j] for j, name in enumerate(names)},
+            "sample_stats": stats,
+            "prior": {
+                name: prior_draws[np.newaxis, :, j] for j, name in enumerate(names)
+            },
+            "observed_data": {name: y[:, k] for k, name in enumerate(responses)},
+            "constant_data": {name: X[:, k] for k, name in enumerate(inputs)},
+        }
+        # A data variable named like a parameter keeps ArviZ's default dimension.
+        dims = {
+            name: ["observation"] for name in [*responses, *inputs] if name not in names
+        }
+        coords = {"observation": np.arange(len(X))}
+        groups = {group: data for group, data in groups.items() if data is not None}
+        if int(arviz.__version__.split(".")[0]) >= 1:
+            result = arviz.from_dict(groups, dims=dims, coords=coords)  # a DataTree
+        else:
+            result = arviz.from_dict(**groups, dims=dims, coords=coords)
+        result["posterior"].attrs.update(inference_library="skmba", **attrs)
+        return result
 
 
 # --------------------------------------------------------------- designer
@@ -284,27 +315,16 @@ def jackknife_mcse(covs, score):
     return np.sqrt((n - 1) / n * spread)
 
 
-def design_table(designer, response_names=None):
-    """The scored sensor subsets, best first.
-
-    See :meth:`skmba.PreposteriorDesigner.summary`.
-    """
-    q = designer.n_responses_
-    if response_names is None:
-        names = _data_names(designer, "response_names_", "y", q)
-    else:
-        names = [str(name) for name in response_names]
-        if len(names) != q:
-            raise ValueError(
-                f"response_names has {len(names)} names but the designer scored "
-                f"{q} responses; give one name per response."
-            )
-    order = np.argsort(designer.scores_, kind="stable")
-    subsets = [designer.subsets_[i] for i in order]
+def design_table(names, subsets, scores, mcse):
+    """The scored sensor subsets, best first: one row per subset with the
+    response ``names`` of its members, its size, score and Monte Carlo
+    standard error (see :meth:`skmba.PreposteriorDesigner.summary`)."""
+    order = np.argsort(scores, kind="stable")
+    ranked = [subsets[i] for i in order]
     columns = {
-        "subset": np.array([", ".join(names[k] for k in s) for s in subsets]),
-        "n_responses": np.array([len(s) for s in subsets]),
-        "score": np.asarray(designer.scores_, dtype=float)[order],
-        "mcse": np.asarray(designer.scores_mcse_, dtype=float)[order],
+        "subset": np.array([", ".join(names[k] for k in s) for s in ranked]),
+        "n_responses": np.array([len(s) for s in ranked]),
+        "score": np.asarray(scores, dtype=float)[order],
+        "mcse": np.asarray(mcse, dtype=float)[order],
     }
-    return _table("rank", np.arange(1, len(order) + 1), columns)
+    return table("rank", np.arange(1, len(order) + 1), columns)

@@ -603,7 +603,18 @@ class PreposteriorDesigner(BaseEstimator):
             usually known better than these errors suggest.
         """
         check_is_fitted(self, "scores_")
-        return design_table(self, response_names)
+        q = self.n_responses_
+        names = response_names
+        if names is None:
+            recorded = getattr(self, "response_names_", None)
+            names = recorded if recorded is not None else [f"y{k}" for k in range(q)]
+        names = [str(name) for name in names]
+        if len(names) != q:
+            raise ValueError(
+                f"response_names has {len(names)} names but the designer scored "
+                f"{q} responses; give one name per response."
+            )
+        return design_table(names, self.subsets_, self.scores_, self.scores_mcse_)
 
     def score_subset(self, subset):
         """The criterion of a scored subset (lower is better).
