@@ -11,6 +11,7 @@ file                   holds
 ``_target.py``         the target's log density, checked per chain
 ``_run.py``            ``run_chains``: several chains in joblib workers
 ``_diagnostics.py``    split R-hat and bulk ESS (Vehtari et al. 2021)
+``_posterior.py``      a posterior's draws and moments, Laplace approximation
 =====================  ===================================================
 
 Examples

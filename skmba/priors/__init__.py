@@ -12,6 +12,7 @@ file                   holds
                        recognises what the user gives
 ``_checks.py``         checks of the user's distributions and names
 ``_hyperprior.py``     the default prior of the discrepancy and noise
+``_table_6_2.py``      the uniform ranges of thesis Table 6.2 (plug-in)
 =====================  ===================================================
 
 Examples
