@@ -6,20 +6,15 @@
   text, and ``to_inference_data`` (chains, prior draws and field data as an
   ArviZ ``InferenceData`` with ArviZ 0.x or ``DataTree`` with 1.x, through
   ``arviz.from_dict``), from its public fitted attributes;
-* :func:`design_table` and :func:`jackknife_mcse`: the ranking of the
-  sensor subsets of a :class:`~skmba.PreposteriorDesigner` with the Monte
-  Carlo standard error of each score, from its scores;
 * :func:`table`: a pandas ``DataFrame`` when pandas is installed, a numpy
   structured array otherwise (the same columns; the row labels become a
   first field).
 
 Examples
 --------
->>> import numpy as np
->>> from skmba.calibration._summary import jackknife_mcse
->>> covs = np.array([[[[1.0]], [[3.0]]]])  # 1 subset, 2 replicates, r = 1
->>> jackknife_mcse(covs, lambda stack: np.trace(stack, axis1=1, axis2=2))
-array([1.])
+>>> from skmba.calibration._summary import table
+>>> table("k", [1, 2], {"score": [0.5, 0.25]}).shape
+(2, 1)
 """
 
 import math
@@ -278,53 +273,3 @@ class CalibrationSummaryMixin:
             result = arviz.from_dict(**groups, dims=dims, coords=coords)
         result["posterior"].attrs.update(inference_library="skmba", **attrs)
         return result
-
-
-# --------------------------------------------------------------- designer
-def jackknife_mcse(covs, score):
-    """Jackknife Monte Carlo standard error of each subset's score.
-
-    The score of a subset is ``score(mean_i V_i)``, a norm of the mean of its
-    per-replicate posterior covariances ``V_i``. With ``s_(i)`` the score of
-    the mean without replicate ``i`` and ``s_(.)`` their mean, the jackknife
-    standard error is ``sqrt((n - 1) / n * sum_i (s_(i) - s_(.))**2)``; for
-    the (linear) trace criterion it equals the standard error of the mean of
-    the per-replicate criteria, ``std(ddof=1) / sqrt(n)``.
-
-    Parameters
-    ----------
-    covs : ndarray of shape (n_subsets, n_mc, r, r)
-        Per-replicate posterior covariances.
-    score : callable
-        ``score(covs) -> ndarray (m,)`` for a stack of ``m`` covariances
-        ``(m, r, r)``, e.g. :func:`~skmba.sensor_design._replicates.criterion_value`
-        with the prior's covariance and a criterion bound.
-
-    Returns
-    -------
-    mcse : ndarray of shape (n_subsets,)
-        NaN when there is a single replicate.
-    """
-    covs = np.asarray(covs, dtype=float)
-    n = covs.shape[1]
-    if n < 2:
-        return np.full(covs.shape[0], np.nan)
-    left_out = (covs.sum(axis=1, keepdims=True) - covs) / (n - 1)
-    scores = score(left_out.reshape(-1, *covs.shape[2:])).reshape(covs.shape[:2])
-    spread = ((scores - scores.mean(axis=1, keepdims=True)) ** 2).sum(axis=1)
-    return np.sqrt((n - 1) / n * spread)
-
-
-def design_table(names, subsets, scores, mcse):
-    """The scored sensor subsets, best first: one row per subset with the
-    response ``names`` of its members, its size, score and Monte Carlo
-    standard error (see :meth:`skmba.PreposteriorDesigner.summary`)."""
-    order = np.argsort(scores, kind="stable")
-    ranked = [subsets[i] for i in order]
-    columns = {
-        "subset": np.array([", ".join(names[k] for k in s) for s in ranked]),
-        "n_responses": np.array([len(s) for s in ranked]),
-        "score": np.asarray(scores, dtype=float)[order],
-        "mcse": np.asarray(mcse, dtype=float)[order],
-    }
-    return table("rank", np.arange(1, len(order) + 1), columns)

@@ -43,7 +43,6 @@ from skmba.calibration._field_data import prior_names
 from skmba.calibration._module1_emulator import Standardizer, fit_emulator
 from skmba.calibration._settings import PARAMETER_TABLE as CALIBRATION_TABLE
 from skmba.calibration._settings import CalibrationSettings
-from skmba.calibration._summary import design_table, jackknife_mcse
 from skmba.sensor_design._inputs import (
     PARAMETER_TABLE,
     designer_prior,
@@ -53,10 +52,14 @@ from skmba.sensor_design._inputs import (
 )
 from skmba.sensor_design._replicates import (
     MonteCarloContext,
-    criterion_value,
     draw_replicate,
-    subset_moments,
     warn_replicate_problems,
+)
+from skmba.sensor_design._scoring import (
+    criterion_value,
+    design_table,
+    jackknife_mcse,
+    subset_moments,
 )
 from skmba.sensor_design._subset_search import (
     all_subsets,
@@ -470,7 +473,7 @@ class PreposteriorDesigner(BaseEstimator):
 
         Each batch of new subsets the search asks for runs in joblib tasks
         of a block of replicates and a chunk of subsets (see
-        :func:`~skmba.sensor_design._replicates.subset_moments`); a bar counts the
+        :func:`~skmba.sensor_design._scoring.subset_moments`); a bar counts the
         (subset, replicate) evaluations. An exhaustive search scores all
         its subsets in one batch, announced with its size before it starts.
         """

@@ -10,12 +10,9 @@ from sklearn.utils import Bunch
 from thesis._helpers import fit
 
 from skmba import ModularBayesCalibrator, PreposteriorDesigner
-from skmba.calibration._summary import (
-    CALIBRATION_COLUMNS,
-    QUADRATURE_NOTE,
-    jackknife_mcse,
-)
+from skmba.calibration._summary import CALIBRATION_COLUMNS, QUADRATURE_NOTE
 from skmba.datasets import make_cantilever
+from skmba.sensor_design._scoring import jackknife_mcse
 
 with warnings.catch_warnings():
     warnings.simplefilter("ignore", FutureWarning)  # ArviZ 0.x announces 1.0

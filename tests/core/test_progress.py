@@ -14,7 +14,7 @@ import pytest
 from joblib import delayed
 
 import skmba.mcmc._run as sampling
-import skmba.sensor_design._replicates as preposterior
+import skmba.sensor_design._scoring as preposterior
 from skmba import ModularBayesCalibrator, PreposteriorDesigner
 from skmba._core.progress import Progress, as_progress, results_as_ready
 from skmba.datasets import make_cantilever

@@ -14,7 +14,7 @@ from thesis._helpers import designer, table_6_2_on_a_common_scale
 import skmba.calibration._module2_posterior
 from skmba import ModularBayesCalibrator, PreposteriorDesigner
 from skmba.datasets import make_cantilever
-from skmba.sensor_design._replicates import criterion_value
+from skmba.sensor_design._scoring import criterion_value
 
 
 @pytest.fixture(scope="module")
@@ -49,7 +49,7 @@ def test_prefix_trees_split_to_their_memory_budget_give_the_same_scores(
 ):
     """Trees over fewer fields, or over fewer nodes of one field, when a
     tree would hold more than TREE_BYTES: the same posterior moments."""
-    import skmba.sensor_design._replicates as prepost
+    import skmba.sensor_design._scoring as prepost
     from skmba.sensor_design._subset_tree import path_bytes
 
     # 8 design points, 3 responses; the calibrator's default regressions
@@ -283,8 +283,8 @@ def test_propagate_same_result_for_any_n_jobs(small, propagated):
 
 
 def test_mixture_of_subset_likelihoods_is_their_weighted_log_sum():
-    """``_mixed``: log sum_k w_k L_k, and L itself for one component."""
-    from skmba.sensor_design._replicates import _mixed
+    """``mixed``: log sum_k w_k L_k, and L itself for one component."""
+    from skmba.sensor_design._replicates import mixed
 
     class Fixed:
         def __init__(self, values):
@@ -296,8 +296,8 @@ def test_mixture_of_subset_likelihoods_is_their_weighted_log_sum():
     likes = [Fixed([-1.0, -2.0]), Fixed([-3.0, -np.inf])]
     log_w = np.log([0.25, 0.75])
     expected = np.log(0.25 * np.exp([-1.0, -2.0]) + 0.75 * np.exp([-3.0, -np.inf]))
-    np.testing.assert_allclose(_mixed(likes, log_w, None), expected)
-    np.testing.assert_array_equal(_mixed(likes[:1], np.zeros(1), None), [-1.0, -2.0])
+    np.testing.assert_allclose(mixed(likes, log_w, None), expected)
+    np.testing.assert_array_equal(mixed(likes[:1], np.zeros(1), None), [-1.0, -2.0])
 
 
 def test_greedy_and_genetic_find_the_exhaustive_optimum(cantilever):

@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 from sklearn.exceptions import ConvergenceWarning
 
-from skmba.sensor_design._replicates import criterion_value, warn_replicate_problems
+from skmba.sensor_design._replicates import warn_replicate_problems
+from skmba.sensor_design._scoring import criterion_value
 
 
 def test_replicate_problems_are_counted_in_their_warnings():
