@@ -1,36 +1,21 @@
-"""Fast preposterior analysis (FPA): which sensors identify theta best.
+"""PreposteriorDesigner: which sensors identify theta best (thesis chapter 6).
 
-Thesis chapter 6 (section 6.2), after Arendt et al. (2016). Before any
-measurement exists, the designer asks: if the field data had the responses
-``S`` (a sensor configuration) at the design ``X_e``, how well would the MBA
-identify ``theta``? It answers by Monte Carlo over everything unknown:
-
-* step 1: fit the module-1 emulator on the simulations, fix the design, and
-  integrate the emulator over the prior of ``theta`` at the design (module 2,
-  Eqs. 4.13-4.17);
-* step 2, for each replicate ``i``: draw ``theta_i`` from its prior, an
-  emulator realisation at ``(X_e, theta_i)``, discrepancy hyperparameters
-  from ``discrepancy_prior`` and a discrepancy realisation, and noise from
-  ``noise_prior``; their sum is synthetic field data ``Y_e``. Module 2
-  estimates the discrepancy hyperparameters from ``Y_e`` within the
-  roughness and variance ranges of ``discrepancy_prior``, the prior they
-  were drawn from (phase 1: once,
-  with all responses, then reused for every subset when ``fast=True``; per
-  subset when ``fast=False``, as in Arendt et al.), and module 3 gives the
-  posterior covariance ``V_i(S)`` of ``theta`` for every subset;
-* step 3: the preposterior covariance ``mean_i V_i(S)`` and its norm
-  (Eq. 6.3), the score of ``S``; lower is better.
-
-Every subset sees the same replicates (common random numbers), so
-differences between subsets are not Monte Carlo noise.
+The estimator orchestrates the fast preposterior analysis: step 1 (the
+emulator and the prior-integrated emulator at the design,
+:class:`~skmba.sensor_design._replicates.MonteCarloContext`), phase 1 of
+step 2 (the replicates, :func:`~skmba.sensor_design._replicates.
+draw_replicate`), phase 2 (the subsets' posterior moments as the search asks
+for them, :mod:`skmba.sensor_design._scoring` and
+:mod:`skmba.sensor_design._subset_search`) and step 3 (the scores). The
+method is explained in the user guide, "Sensor design by preposterior
+analysis".
 """
 
 import time
 from typing import ClassVar
 
 import numpy as np
-from joblib import Parallel, delayed
-from scipy import stats
+from joblib import delayed
 from sklearn.base import BaseEstimator
 from sklearn.utils.validation import check_is_fitted, validate_data
 
@@ -57,16 +42,11 @@ from skmba.sensor_design._replicates import (
 )
 from skmba.sensor_design._scoring import (
     criterion_value,
+    design_scores,
     design_table,
-    jackknife_mcse,
-    subset_moments,
+    phase2,
 )
-from skmba.sensor_design._subset_search import (
-    all_subsets,
-    check_max_size,
-    genetic,
-    greedy_forward,
-)
+from skmba.sensor_design._subset_search import SearchSettings, check_max_size
 
 
 class PreposteriorDesigner(BaseEstimator):
@@ -386,13 +366,7 @@ class PreposteriorDesigner(BaseEstimator):
             self._parameter_table, self.get_params(deep=False), type(self).__name__
         )
         names = column_names(y)
-        # A table's parameter columns are found by the prior's names.
-        X = parameters_last(X, prior_names(given_prior(self.prior, self.calibrator)))
-        X, y = validate_data(self, X, y, multi_output=True, y_numeric=True)
-        # C order whatever the input's (a DataFrame gives Fortran order): the
-        # same bits as from an array.
-        X = np.ascontiguousarray(X, dtype=float)
-        Y = np.ascontiguousarray(y, dtype=float).reshape(len(X), -1)
+        X, Y = self._simulations(X, y)
         prior, d = designer_prior(self.prior, self.calibrator, X)
         q = Y.shape[1]
         max_size = check_max_size(self.max_responses, q)
@@ -431,8 +405,45 @@ class PreposteriorDesigner(BaseEstimator):
         self._log("step 1: emulator and prior-integrated emulator", started)
 
         # Step 2, phase 1: replicates and (fast) their discrepancy estimates.
-        sequences = children[4].spawn(self.n_mc)
-        parallel = Parallel(n_jobs=self.n_jobs)
+        replicates = self._phase1(ctx, children[4].spawn(self.n_mc))
+        self._log(f"phase 1: {self.n_mc} replicates", started)
+
+        # Phase 2: posterior moments for the subsets the search asks for.
+        search = SearchSettings(
+            self.search, max_size, self.population_size, self.n_generations, seeds[2]
+        )
+        results = phase2(
+            ctx,
+            replicates,
+            lambda means: criterion_value(means, prior_cov, self.criterion),
+            search,
+            n_jobs=self.n_jobs,
+            progress=self._progress(),
+            started=started,
+        )
+
+        # Step 3: preposterior covariance and its norm.
+        self._set_fitted(
+            results, replicates, prior, prior_cov, q, X_design, emulator.gp, names
+        )
+        warn_replicate_problems(replicates)
+        self._log(f"done: best subset {self.best_subset_}", started)
+        return self
+
+    def _simulations(self, X, y):
+        """The simulations checked: parameters last, C-ordered float arrays."""
+        # A table's parameter columns are found by the prior's names.
+        X = parameters_last(X, prior_names(given_prior(self.prior, self.calibrator)))
+        X, y = validate_data(self, X, y, multi_output=True, y_numeric=True)
+        # C order whatever the input's (a DataFrame gives Fortran order): the
+        # same bits as from an array.
+        X = np.ascontiguousarray(X, dtype=float)
+        return X, np.ascontiguousarray(y, dtype=float).reshape(len(X), -1)
+
+    def _phase1(self, ctx, sequences):
+        """Step 2, phase 1: the replicates (and, with ``fast``, their module
+        2) in joblib tasks, one per seed sequence, in the order of
+        ``sequences``."""
         replicates = []
         task = BlasTask(draw_replicate, ctx.n * ctx.q, self.n_jobs)
         tasks = (delayed(task)(ctx, s) for s in sequences)
@@ -445,20 +456,7 @@ class PreposteriorDesigner(BaseEstimator):
             for rep in results_as_ready(tasks, self.n_jobs):
                 replicates.append(rep)
                 bar.update(1)
-        self._log(f"phase 1: {self.n_mc} replicates", started)
-
-        # Phase 2: posterior moments for the subsets the search asks for.
-        results = self._search(
-            parallel, ctx, replicates, q, max_size, prior_cov, seeds[2], started
-        )
-
-        # Step 3: preposterior covariance and its norm.
-        self._set_fitted(
-            results, replicates, prior, prior_cov, q, X_design, emulator.gp, names
-        )
-        warn_replicate_problems(replicates)
-        self._log(f"done: best subset {self.best_subset_}", started)
-        return self
+        return replicates
 
     def _calibration_settings(self):
         """The MBA settings of the calibrator template, checked."""
@@ -468,109 +466,18 @@ class PreposteriorDesigner(BaseEstimator):
         validate_parameter_table(CALIBRATION_TABLE, params, type(template).__name__)
         return CalibrationSettings.from_params(params)
 
-    def _search(self, parallel, ctx, replicates, q, max_size, prior_cov, seed, started):
-        """Phase 2: the posterior moments of every subset the search scores.
-
-        Each batch of new subsets the search asks for runs in joblib tasks
-        of a block of replicates and a chunk of subsets (see
-        :func:`~skmba.sensor_design._scoring.subset_moments`); a bar counts the
-        (subset, replicate) evaluations. An exhaustive search scores all
-        its subsets in one batch, announced with its size before it starts.
-        """
-        results = {}
-        progress = self._progress()
-        n_tasks = max(1, min(self.n_mc, 4 * abs(parallel.n_jobs or 1)))
-        blocks = [b for b in np.array_split(np.arange(self.n_mc), n_tasks) if len(b)]
-        exhaustive = all_subsets(q, max_size) if self.search == "exhaustive" else None
-        if exhaustive is not None:
-            n_subsets = len(exhaustive)
-            progress.info(
-                f"phase 2: exhaustive search over {n_subsets} subsets (of at most "
-                f"{max_size} of {q} responses) x {self.n_mc} replicates = "
-                f"{n_subsets * self.n_mc} posterior evaluations"
-            )
-        elif self.search == "greedy":
-            n_subsets = sum(q - k for k in range(max_size))
-        else:
-            n_subsets = q + self.population_size
-        bar = progress.bar(
-            n_subsets * self.n_mc, f"phase 2: {self.search} search", unit="eval"
-        )
-
-        def score(subsets):
-            subsets = [tuple(s) for s in subsets]
-            new = [s for s in dict.fromkeys(subsets) if s not in results]
-            if new:
-                bar.total = max(bar.total, bar.n + len(new) * self.n_mc)
-                results.update(
-                    subset_moments(
-                        ctx,
-                        replicates,
-                        new,
-                        blocks,
-                        bar,
-                        estimate=exhaustive is not None,
-                        n_jobs=self.n_jobs,
-                        progress=progress,
-                    )
-                )
-                progress.detail(
-                    f"scored {len(results)} subsets "
-                    f"({time.perf_counter() - started:.1f} s)"
-                )
-            means = np.array([results[s][1].mean(axis=0) for s in subsets])
-            return criterion_value(means, prior_cov, self.criterion).tolist()
-
-        with bar:
-            if exhaustive is not None:
-                score(exhaustive)
-            else:
-                score([(j,) for j in range(q)])
-                if self.search == "greedy":
-                    greedy_forward(score, q, max_size)
-                else:
-                    genetic(
-                        score,
-                        q,
-                        max_size,
-                        population_size=self.population_size,
-                        n_generations=self.n_generations,
-                        random_state=seed,
-                    )
-        return results
-
     def _set_fitted(
         self, results, replicates, prior, prior_cov, q, X_design, gp, names=None
     ):
         """Step 3 and every fitted attribute, in one place."""
-
-        def score(cov):
-            return criterion_value(cov, prior_cov, self.criterion)
-
-        subsets = sorted(results, key=lambda s: (len(s), s))
-        covs = np.array([results[s][1] for s in subsets])  # (S, n_mc, r, r)
-        means = np.array([results[s][0] for s in subsets])
-        theta_draws = np.array([rep.theta for rep in replicates])
         self.prior_ = prior
         self.X_design_ = X_design
         self.model_gp_ = gp
         self.n_responses_ = q
         self.response_names_ = names
-        self.theta_draws_ = theta_draws
-        self.subsets_ = subsets
-        self.preposterior_cov_ = covs.mean(axis=1)
-        self.scores_ = score(self.preposterior_cov_)
-        self.scores_mcse_ = jackknife_mcse(covs, score)
-        running = np.cumsum(covs, axis=1) / np.arange(1, self.n_mc + 1)[:, None, None]
-        self.convergence_ = score(running).T
-        self.expected_error_ = np.sqrt(
-            np.mean((means - theta_draws[None]) ** 2, axis=1)
-        )
-        self.best_subset_ = subsets[int(np.argmin(self.scores_))]
-        self.support_ = np.zeros(q, dtype=bool)
-        self.support_[list(self.best_subset_)] = True
-        single = score(np.array([results[(j,)][1].mean(axis=0) for j in range(q)]))
-        self.ranking_ = stats.rankdata(single, method="min").astype(int)
+        scores = design_scores(results, replicates, prior_cov, self.criterion, q)
+        for name, value in scores.items():
+            setattr(self, f"{name}_", value)
 
     def _progress(self):
         """Where ``fit`` reports, by ``verbose`` (:mod:`skmba._core.progress`)."""

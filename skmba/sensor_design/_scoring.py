@@ -32,8 +32,8 @@ array([1.])
 import time
 
 import numpy as np
-from joblib import delayed, effective_n_jobs
-from scipy import special
+from joblib import Parallel, delayed, effective_n_jobs
+from scipy import special, stats
 from scipy.linalg import solve_triangular
 
 from skmba._core.progress import results_as_ready
@@ -355,4 +355,88 @@ def _stage1_log_likelihoods(ctx, replicates, subsets):
                 out[i] = special.logsumexp(
                     values[:, mine] + log_w[mine][None, :, None], axis=1
                 )
+    return out
+
+
+def phase2(ctx, replicates, criterion, search, *, n_jobs, progress, started):
+    """Phase 2: the posterior moments of every subset the search scores.
+
+    ``criterion(means)`` scores a stack of mean posterior covariances;
+    ``search`` is a :class:`~skmba.sensor_design._subset_search.SearchSettings`.
+    Each batch of new subsets the search asks for runs in joblib tasks of a
+    block of replicates and a chunk of subsets (:func:`subset_moments`); a
+    bar counts the (subset, replicate) evaluations. An exhaustive search
+    scores all its subsets in one batch, announced with its size before it
+    starts. Returns ``{subset: (means, covs)}`` over the replicates.
+    """
+    results = {}
+    n_mc, q = len(replicates), ctx.q
+    parallel = Parallel(n_jobs=n_jobs)  # its n_jobs under any parallel_config
+    n_tasks = max(1, min(n_mc, 4 * abs(parallel.n_jobs or 1)))
+    blocks = [b for b in np.array_split(np.arange(n_mc), n_tasks) if len(b)]
+    exhaustive = search.search == "exhaustive"
+    n_subsets = search.planned(q)
+    if exhaustive:
+        progress.info(
+            f"phase 2: exhaustive search over {n_subsets} subsets (of at most "
+            f"{search.max_size} of {q} responses) x {n_mc} replicates = "
+            f"{n_subsets * n_mc} posterior evaluations"
+        )
+    bar = progress.bar(
+        n_subsets * n_mc, f"phase 2: {search.search} search", unit="eval"
+    )
+
+    def evaluate(subsets):
+        subsets = [tuple(s) for s in subsets]
+        new = [s for s in dict.fromkeys(subsets) if s not in results]
+        if new:
+            bar.total = max(bar.total, bar.n + len(new) * n_mc)
+            results.update(
+                subset_moments(
+                    ctx,
+                    replicates,
+                    new,
+                    blocks,
+                    bar,
+                    estimate=exhaustive,
+                    n_jobs=n_jobs,
+                    progress=progress,
+                )
+            )
+            progress.detail(
+                f"scored {len(results)} subsets ({time.perf_counter() - started:.1f} s)"
+            )
+        means = np.array([results[s][1].mean(axis=0) for s in subsets])
+        return criterion(means).tolist()
+
+    with bar:
+        search.run(evaluate, q)
+    return results
+
+
+def design_scores(results, replicates, prior_cov, criterion, q):
+    """Step 3: the designer's scores from the posterior moments ``results``
+    (``{subset: (means, covs)}`` over the replicates), as a dict of its
+    fitted attributes (names without the trailing underscore)."""
+
+    def score(cov):
+        return criterion_value(cov, prior_cov, criterion)
+
+    subsets = sorted(results, key=lambda s: (len(s), s))
+    covs = np.array([results[s][1] for s in subsets])  # (S, n_mc, r, r)
+    means = np.array([results[s][0] for s in subsets])
+    theta_draws = np.array([rep.theta for rep in replicates])
+    n_mc = covs.shape[1]
+    out = {"theta_draws": theta_draws, "subsets": subsets}
+    out["preposterior_cov"] = covs.mean(axis=1)
+    out["scores"] = score(out["preposterior_cov"])
+    out["scores_mcse"] = jackknife_mcse(covs, score)
+    running = np.cumsum(covs, axis=1) / np.arange(1, n_mc + 1)[:, None, None]
+    out["convergence"] = score(running).T
+    out["expected_error"] = np.sqrt(np.mean((means - theta_draws[None]) ** 2, axis=1))
+    out["best_subset"] = subsets[int(np.argmin(out["scores"]))]
+    out["support"] = np.zeros(q, dtype=bool)
+    out["support"][list(out["best_subset"])] = True
+    single = score(np.array([results[(j,)][1].mean(axis=0) for j in range(q)]))
+    out["ranking"] = stats.rankdata(single, method="min").astype(int)
     return out

@@ -25,6 +25,7 @@ Examples
 [(1,), (1, 2)]
 """
 
+from dataclasses import dataclass
 from itertools import combinations
 from numbers import Integral
 
@@ -195,3 +196,46 @@ def genetic(
             if stale >= patience:
                 break
     return as_tuple(population[int(np.argmin(fitness))])
+
+
+@dataclass(frozen=True)
+class SearchSettings:
+    """A search over subsets of at most ``max_size`` items: ``search`` is
+    ``"exhaustive"``, ``"greedy"`` or ``"genetic"`` (whose population,
+    generations and seed are the other fields)."""
+
+    search: str
+    max_size: int
+    population_size: int
+    n_generations: int
+    random_state: object
+
+    def planned(self, q):
+        """The subsets of ``q`` items it scores at least: all of them
+        (exhaustive), every step of the forward selection (greedy), or the
+        single items and the first generation (genetic)."""
+        if self.search == "exhaustive":
+            return len(all_subsets(q, self.max_size))
+        if self.search == "greedy":
+            return sum(q - k for k in range(self.max_size))
+        return q + self.population_size
+
+    def run(self, evaluate, q):
+        """Run the search over subsets of ``q`` items, scoring batches of
+        subsets with ``evaluate``; the single items are scored first by the
+        greedy and genetic searches."""
+        if self.search == "exhaustive":
+            evaluate(all_subsets(q, self.max_size))
+            return
+        evaluate([(j,) for j in range(q)])
+        if self.search == "greedy":
+            greedy_forward(evaluate, q, self.max_size)
+        else:
+            genetic(
+                evaluate,
+                q,
+                self.max_size,
+                population_size=self.population_size,
+                n_generations=self.n_generations,
+                random_state=self.random_state,
+            )
