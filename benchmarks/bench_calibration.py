@@ -313,7 +313,7 @@ def cantilever_fast(n_sim, n_obs, discrepancy_uncertainty, fast=FAST):
 def single_model(cal):
     """The calibrator's global model at one value of the module-2
     hyperparameters (their mode, under the default treatment)."""
-    return getattr(cal.global_model_, "base", cal.global_model_)
+    return cal.global_model_.base
 
 
 class DenseGlobalLikelihood:
@@ -400,7 +400,8 @@ def likelihood_timing(cal, label, n_thetas=N_THETAS, seed=0):
     process occupies a core.
     """
     gm = single_model(cal)
-    mixture = cal.global_model_ if hasattr(cal.global_model_, "models") else None
+    # A mixture of one draw is the plug-in's global model itself.
+    mixture = cal.global_model_ if len(cal.global_model_.models) > 1 else None
     rng = np.random.default_rng(seed)
     draws = cal.theta_samples_
     idx = rng.choice(len(draws), size=n_thetas, replace=False)

@@ -255,15 +255,19 @@ class ModularBayesCalibrator(
         taken.
     theta_nodes_, theta_weights_ : ndarray
         The posterior quadrature (only with quadrature).
-    prior_ : skmba.priors._theta.Prior
-    global_model_ : GlobalModel
-        The module-3 likelihood of Eq. 4.30 (standardised units), built
-        from the emulator, the field data and the module-2 estimates; its
-        ``log_likelihood(theta_std)`` takes standardised parameters
-        ``(theta - theta_offset_) / theta_scale_``.
+    prior_ : prior object
+        The checked prior (one of :mod:`skmba.priors`): ``logpdf``, ``rvs``,
+        ``mean``, ``cov``, ``bounds``, ``dim`` and ``names``.
+    global_model_ : object
+        The module-3 likelihood of Eq. 4.30 (standardised units) over module
+        2's draws of the discrepancy and noise hyperparameters (one draw of
+        weight one with the plug-in): ``log_likelihood(theta_std)`` takes
+        standardised parameters ``(theta - theta_offset_) / theta_scale_``;
+        ``models`` holds the global model of each draw and ``base`` the one
+        at the module-2 mode.
     X_sim_, theta_sim_, y_sim_ : ndarray
         The simulations used (given and run, the successful ones).
-    simulation_failures_ : list of SimulationFailure
+    simulation_failures_ : list of named tuples
         The runs left out: rows of ``y_sim`` with NaN or inf and simulator
         runs that raised or returned NaN or inf, each a named tuple
         ``(source, index, X, theta, error)`` (``pandas.DataFrame`` of the

@@ -23,14 +23,13 @@ the Cholesky factor of the correlation ``C`` with rows ``w_i / |w_i|``,
 reached). Bounds on ``s`` make the diagonal of ``Sigma_d`` lie exactly in the
 range. Thesis Table 6.2 gives the default ranges
 (:data:`~skmba.priors._table_6_2.TABLE_6_2_RANGES`): a uniform prior on the
-hyperparameters, whose maximum a posteriori is the likelihood maximised inside them.
+hyperparameters, whose maximum a posteriori is the likelihood maximised inside
+them. Why a lower end: docs/internals.rst, section
+skmba.calibration._module2_plug_in.
 
-Why a lower end: when the model at some ``theta`` reproduces the field data,
-as on the cantilever whose spring only rescales the responses, the plain
-maximum likelihood makes the discrepancy vanish, or perfectly correlated
-between responses, and module 3 then pins ``theta`` to the value that needs
-no discrepancy, with a credible interval that ignores that the model is
-known to be wrong (Brynjarsdottir & O'Hagan, 2014, Inverse Problems 30).
+:func:`fit_discrepancy` runs it (the calibrator's plug-in and the designer's
+replicates); :class:`DiscrepancyFit` is the likelihood,
+:class:`DiscrepancyEstimate` its maximiser.
 """
 
 from dataclasses import dataclass

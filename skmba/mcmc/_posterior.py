@@ -93,9 +93,8 @@ class PosteriorResult:
 
 #: Tolerances of the search for the mode (sampling coordinates, standardised
 #: by the simulated parameters; log density): it only places the chains'
-#: starts and the steps of the Hessian. On the Tamar-sized benchmark (r=3)
-#: 1e-3 and 1e-4 took 323 evaluations against 880 with 1e-5 and 1e-6, for a
-#: mode 0.01 posterior sd away and the same Laplace sds to 4 digits.
+#: starts and the steps of the Hessian (measured: docs/internals.rst,
+#: section skmba.mcmc._posterior).
 _MODE_XATOL = 1e-3
 
 

@@ -106,8 +106,8 @@ def criterion_value(cov, prior_cov, criterion):
 
 #: Bytes that one prefix tree of the subsets may hold along its path
 #: (:func:`~skmba.sensor_design._subset_tree.path_bytes` per field and theta): its
-#: fields and stage-1 nodes are split to fit. On the truss (12 design points, 9 gauges,
-#: 33 nodes) stacks of 2 to 31 fields ran alike.
+#: fields and stage-1 nodes are split to fit (measured: docs/internals.rst,
+#: section skmba.sensor_design._scoring).
 TREE_BYTES = 64 * 2**20
 
 
@@ -156,11 +156,9 @@ LONG_SEARCH_SECONDS = 600.0
 
 
 # Phase 2 runs in joblib tasks of about this many (subset, replicate)
-# posterior evaluations (a few ms each on a small design): a bar update
-# every few seconds and an early first estimate, while each task is long
-# enough that shipping its context to a worker costs little (measured on
-# the truss FPA: 200 per task took 127 s, 1000 per task 121 s, the
-# undivided blocks of before 115 s).
+# posterior evaluations: a bar update every few seconds, and tasks long
+# enough that shipping the context costs little (docs/internals.rst,
+# section skmba.sensor_design._scoring).
 _TASK_EVALUATIONS = 1000
 
 

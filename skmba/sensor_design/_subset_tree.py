@@ -19,9 +19,8 @@ the responses ``b`` that follow in some subset are carried down the tree,
 as are the whitened field rows of the regression and the data. Each tree
 node then costs one ``n x n`` factorisation and products with the
 ``n |P|`` rows of its parent, where factoring every subset on its own costs
-``(n |T|)^3 / 3``; on the truss's 511 subsets of 9 gauges phase 2 of
-the designer took 3.6 times less time than with every subset factored on
-its own (``benchmarks/bench_sensor_design.py``). The regression is
+``(n |T|)^3 / 3`` (measured: docs/internals.rst, section
+skmba.sensor_design._subset_tree). The regression is
 integrated out per subset by the QR shared with the calibrator
 (:func:`~skmba.calibration._module3_likelihood.regression_log_likelihoods`).
 
