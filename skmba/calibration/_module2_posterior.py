@@ -20,7 +20,10 @@ weights ``w_k ∝ p(phi_k) / proposal(phi_k)``.
 The same draws serve every theta, so the estimate is a smooth function of
 theta; ``q`` only sets its precision (any ``q`` gives the right answer as
 ``K`` grows), never its target. :func:`fit_hyperposterior` returns the
-:class:`HyperposteriorDraws`.
+:class:`HyperposteriorDraws`. :class:`HyperparameterCoordinates` gives the
+coordinates of ``phi``, ``log p(phi)`` in them and the component of each
+point: the pieces of that target, the joint posterior of theta and ``phi``
+(checked against it in ``validation/studies/joint_reference.py``).
 
 Examples
 --------
@@ -102,6 +105,10 @@ class HyperposteriorDraws:
         underestimates it (the noise posterior is skewed to the right).
     noise_ess : float or None
         Effective sample size of that estimate (Kish).
+    draw_coordinates : ndarray of shape (K, m) or None
+        The draws ``phi_k`` in the unbounded coordinates ``v`` of
+        :class:`HyperparameterCoordinates` (those of ``laplace_cov``);
+        None for the plug-in.
     """
 
     mode: DiscrepancyFit
@@ -110,6 +117,7 @@ class HyperposteriorDraws:
     laplace_cov: np.ndarray | None
     noise_mean: np.ndarray | None
     noise_ess: float | None
+    draw_coordinates: np.ndarray | None = None
 
     @property
     def regression(self):
@@ -191,6 +199,22 @@ class _Coordinates:
         value = self.prior.log_sd_normalised(p[k + q : k + 2 * q])
         value += self.prior.log_correlation_normalised(p[k + 2 * q :], q)
         return value + float(np.sum(np.log((s * (1 - s))[self.bounded])))
+
+    def component(self, v):
+        """The :class:`DiscrepancyComponent` of ``v``."""
+        fit = self.fit
+        theta, lam, L = fit.unpack(self.to_p(v)[0])
+        kern = fit.kernel.clone_with_theta(theta) if fit.n_kernel else fit.kernel
+        return DiscrepancyComponent(kern, L @ L.T, lam, fit.regression)
+
+    def coordinates_of(self, component):
+        """``v`` of a :class:`DiscrepancyComponent` (the inverse of
+        :meth:`component`; bounded coordinates within 1e-6 of a bound, in
+        the logit's scale, are put there)."""
+        fit = self.fit
+        theta = component.kernel_.theta if fit.n_kernel else np.zeros(0)
+        L = np.linalg.cholesky(np.asarray(component.sigma2, dtype=float))
+        return self.to_v(fit.pack(theta, np.asarray(component.noise, float), L))
 
     def prior_draw(self, rng):
         """``v`` of one draw of the prior."""
@@ -306,6 +330,82 @@ def _posterior_coordinates(X_e, residual, V_fixed, prior, kernel, regression, no
     return _Coordinates(fit, prior)
 
 
+@dataclass(frozen=True)
+class HyperparameterCoordinates:
+    """The module-2 hyperparameters ``phi`` in unbounded coordinates ``v``.
+
+    What a sampler over theta and ``phi`` together needs (the joint
+    posterior ``p(theta, phi | data)`` that module 3's mixture integrates
+    over ``phi``): the coordinates of :func:`fit_hyperposterior`'s draws
+    (``HyperposteriorDraws.draw_coordinates``) and Laplace approximation,
+    ``log p(phi)`` in them and the component of each ``v``. Build it with
+    :meth:`from_field_data`, from the arguments of
+    :func:`fit_hyperposterior`; the coordinates and the prior depend on the
+    residual only through its shape (module 2's likelihood, which uses it,
+    is not part of this).
+
+    Attributes
+    ----------
+    coordinates : object
+        The coordinates and the restricted likelihood behind them (this
+        module's own).
+    size : int
+        The number of free hyperparameters, the length of ``v``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skmba.priors._hyperprior import Hyperprior
+    >>> X = np.linspace(-1.7, 1.7, 12)[:, None]
+    >>> space = HyperparameterCoordinates.from_field_data(
+    ...     X, np.zeros((12, 2)), np.zeros((24, 24)), prior=Hyperprior())
+    >>> space.size  # roughness, 2 noise variances, 2 sds, 1 correlation
+    6
+    >>> component = space.component(np.zeros(6))
+    >>> bool(np.allclose(space.coordinates_of(component), 0.0))
+    True
+    """
+
+    coordinates: object
+
+    @classmethod
+    def from_field_data(
+        cls,
+        X_e,
+        residual,
+        V_fixed,
+        *,
+        prior,
+        kernel=None,
+        regression="constant",
+        noise=True,
+    ):
+        """The coordinates of :func:`fit_hyperposterior` for its arguments."""
+        return cls(
+            _posterior_coordinates(
+                X_e, residual, V_fixed, prior, kernel, regression, noise
+            )
+        )
+
+    @property
+    def size(self):
+        return int(np.sum(self.coordinates.free))
+
+    def log_prior(self, v):
+        """``log p(phi)`` at ``v``: normalised, with the Jacobian of ``v``."""
+        return float(self.coordinates.log_prior_normalised(np.asarray(v, float)))
+
+    def component(self, v):
+        """The :class:`DiscrepancyComponent` of ``v`` (standardised units),
+        as :func:`fit_hyperposterior` builds its draws."""
+        return self.coordinates.component(np.asarray(v, dtype=float))
+
+    def coordinates_of(self, component):
+        """``v`` of a component (``kernel_``, ``sigma2``, ``noise``): the
+        inverse of :meth:`component`."""
+        return self.coordinates.coordinates_of(component)
+
+
 def _posterior_mode(coords, n_restarts, noise, seed, progress):
     """The mode of the module-2 posterior: L-BFGS-B from the default start
     and ``n_restarts`` random ones (kernel and noise uniform in their
@@ -397,18 +497,13 @@ def fit_hyperposterior(
     draws, log_p, log_q = _proposal_draws(coords, best.x, cov, n_draws, draw_seed)
     log_w = log_p - log_q
     log_w -= special.logsumexp(log_w)
-    components = []
-    for v in draws:
-        theta, lam, L = fit.unpack(coords.to_p(v)[0])
-        kern = fit.kernel.clone_with_theta(theta) if fit.n_kernel else fit.kernel
-        sigma2 = L @ L.T
-        components.append(DiscrepancyComponent(kern, sigma2, lam, regression))
+    components = [coords.component(v) for v in draws]
     noise = (
         _noise_posterior_mean(coords, best.x, cov, noise_seed)
         if noise_mean
         else (None, None)
     )
-    return HyperposteriorDraws(mode, components, log_w, cov, *noise)
+    return HyperposteriorDraws(mode, components, log_w, cov, *noise, draws)
 
 
 def propagated_module2(integrated, *, first_pass, posterior, integrate, second_pass):
