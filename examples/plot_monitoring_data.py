@@ -83,8 +83,12 @@ cal = calibrate(readings)
 # The two failed runs were left out (the other 38 are used;
 # ``simulation_failures_`` lists them), and gauge ``SI`` reads about a
 # thousand times what the model gives: a unit slip. The first fit is not to
-# be trusted; correct the unit and fit again. (The third warning is about
-# k itself; it comes back below.)
+# be trusted; correct the unit and fit again. Gauges ``SB`` and ``SH`` read
+# with the opposite sign of the model: here no wiring slip but the model's
+# discrepancy (the real bridge is hotter at the top and bends the other way
+# than the uniformly heated model), which the check cannot tell from a
+# slip and names all the same. (The last warning is about k itself; it
+# comes back below.)
 
 print(pd.DataFrame(cal.simulation_failures_))
 log["SI"] /= 1000.0

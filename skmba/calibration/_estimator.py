@@ -33,7 +33,8 @@ from skmba._core.threads import blas_threads
 from skmba._core.validation import int_seed, seed_sequence, validate_parameter_table
 from skmba.calibration._field_data import (
     check_field_data,
-    check_response_ranges,
+    check_responses,
+    check_same_index,
     check_simulation_design,
     checked_field_y,
     field_order,
@@ -41,6 +42,7 @@ from skmba.calibration._field_data import (
     measured_r2,
     named_simulations,
     prior_names,
+    row_labels,
     warn_few_distinct_inputs,
 )
 from skmba.calibration._module2_prior_integral import one_parameter_rule
@@ -428,7 +430,7 @@ class ModularBayesCalibrator(
             self._parameter_table, self.get_params(deep=False), type(self).__name__
         )
         settings = CalibrationSettings.from_params(self.get_params(deep=False))
-        X, Y, y_ndim, responses, tables = self._field_data(
+        X, Y, y_ndim, responses, tables, rows = self._field_data(
             X, y, X_sim, theta_sim, y_sim
         )
         # Before any simulation runs: a bad range must not waste them.
@@ -454,7 +456,7 @@ class ModularBayesCalibrator(
         check_simulation_design(
             X, prior, sims, getattr(self, "feature_names_in_", None)
         )
-        check_response_ranges(Y, sims.y, responses)
+        check_responses(X, Y, sims.X, sims.y, responses, rows)
         result = run_modules(
             settings, X, Y, sims, prior, module2_spec, seeds[1:], progress
         )
@@ -463,21 +465,23 @@ class ModularBayesCalibrator(
         )
 
     def _field_data(self, X, y, X_sim, theta_sim, y_sim):
-        """The field data checked (the measured rows, C order) and the
-        simulation tables matched to them by name."""
+        """The field data checked (the measured rows, C order), the labels
+        of those rows, and the simulation tables matched to them by name."""
         check_field_data(X, y, self.discrepancy_regression)
-        responses = column_names(y)
+        check_same_index(X, y)
+        labels = row_labels(y)
+        features, responses = column_names(X), column_names(y)
         X = validate_data(self, X)
         # NaN in y is a reading not taken; scikit-learn's y check rejects it.
         y = checked_field_y(y)
         check_consistent_length(X, y)
         # Tables of simulations are matched to the field data and the prior
-        # by their column names (arrays by position).
+        # by their column labels (arrays by position).
         tables = named_simulations(
             X_sim,
             theta_sim,
             y_sim,
-            features=getattr(self, "feature_names_in_", None),
+            features=features,
             parameters=prior_names(self.prior),
             responses=responses,
         )
@@ -485,9 +489,10 @@ class ModularBayesCalibrator(
         # same bits as from an array.
         X = np.ascontiguousarray(X, dtype=float)
         Y = np.ascontiguousarray(y, dtype=float).reshape(len(X), -1)
+        kept = np.isfinite(Y).any(axis=1)
         X, Y = measured_field_data(X, Y, self.discrepancy_regression, responses)
         warn_few_distinct_inputs(X, self.discrepancy_regression)
-        return X, Y, np.ndim(y), responses, tables
+        return X, Y, np.ndim(y), responses, tables, labels[kept]
 
     def _set_fitted(self, X, Y, y_ndim, responses, sims, result):
         """Every fitted attribute, in one place."""
@@ -558,6 +563,7 @@ class ModularBayesCalibrator(
         -------
         float
         """
+        check_same_index(X, y)
         y = checked_field_y(y)
         pred = np.asarray(self.predict(X), dtype=float).reshape(len(y), -1)
         return measured_r2(y.reshape(len(y), -1), pred, sample_weight)

@@ -7,9 +7,10 @@ against the simulations and the prior.
   (:func:`measured_field_data`); NaN in ``X`` and inf anywhere are errors;
 - where tables meet: simulation tables matched to the field data and the
   prior by name (:func:`named_simulations`);
-- against the simulations: responses in other units
-  (:func:`check_response_ranges`), field inputs outside the simulated
-  region and a prior the simulations miss (:func:`check_simulation_design`).
+- against the simulations: each response on both sides (units, sign, a
+  stuck sensor, logger codes; :func:`check_responses`), field inputs
+  outside the simulated region and a prior the simulations miss
+  (:func:`check_simulation_design`).
 
 Examples
 --------
@@ -31,6 +32,7 @@ from skmba._core.columns import match_columns
 from skmba._core.regression import n_regression_terms
 from skmba._core.warn import warn
 from skmba.calibration._simulations import as_array, check_2d, check_finite_rows
+from skmba.exceptions import FieldDataWarning
 
 
 def check_field_data(X, y, discrepancy_regression):
@@ -205,55 +207,182 @@ _PRIOR_MASS_ERROR = 0.01
 _PRIOR_MASS_WARNING = 0.02
 
 
-#: Observations whose median lies farther outside the simulated range of
-#: their response than this many times the range's width are suspicious.
-RESPONSE_RANGE_FACTOR = 1.0
+#: Field data whose typical magnitude differs from their simulations' (over
+#: the same inputs) by more than this factor, either way, are in other units.
+MAGNITUDE_FACTOR = 5.0
+#: A field response whose spread (interquartile range) is below this share
+#: of its simulations' over the same inputs varies far less than it can.
+SPREAD_SHARE = 0.05
+#: A reading this many widths of the simulated range beyond it is a single
+#: slip or a logger's "no reading" code.
+OUTLIER_WIDTHS = 3.0
+#: Values that data loggers write for "no reading".
+LOGGER_CODES = (-99999.0, -9999.0, -999.0, -32768.0, 32767.0, 9999.0, 99999.0)
+#: Simulations within the field inputs' box needed to compare spreads there.
+MIN_NEAR_RUNS = 10
 
 
-def check_response_ranges(y, y_sim, names=None):
-    """Warn when a response's observations lie far outside its simulations.
+def check_responses(X, Y, X_sim, y_sim, names=None, rows=None):
+    """Each field response against its simulations, on both sides.
 
-    The usual cause is a unit mismatch (mm against m, kN against N): the
-    discrepancy would otherwise absorb a factor of 1000 without a word.
-    A response is suspicious when the median of its (finite) observations
-    lies outside the range of its simulations by more than
-    :data:`RESPONSE_RANGE_FACTOR` times that range's width. ``names`` (the
-    columns of a DataFrame ``y``) name the response in the message.
+    Warns (:class:`~skmba.exceptions.FieldDataWarning`), naming the response
+    and the likely cause, when its finite readings
+
+    * hold single readings more than :data:`OUTLIER_WIDTHS` simulated widths
+      beyond the simulated range, or a logger code (:data:`LOGGER_CODES`)
+      outside it (named by row: mark them missing with NaN), and, without
+      those,
+    * are constant (a stuck sensor),
+    * have the opposite sign of simulations that have one sign, at their size
+      (a sign convention),
+    * differ in typical magnitude (median of ``log |y|``) from one-signed
+      simulations over the same inputs by more than :data:`MAGNITUDE_FACTOR`
+      either way, or, for simulations of both signs, lie farther beyond
+      their range than its width (units),
+    * spread less than :data:`SPREAD_SHARE` of the simulations over the same
+      inputs (a stuck or slipping sensor, or units).
+
+    "The same inputs" are the runs whose design variables lie in the box of
+    the field inputs (when there are :data:`MIN_NEAR_RUNS` of them; else
+    all runs, and no spread test). ``names`` name the responses and ``rows``
+    the rows of ``Y`` (default: their positions).
 
     Examples
     --------
     >>> import warnings
-    >>> y_sim = np.linspace(0.0, 2.0, 20)[:, None]
+    >>> X_sim = np.linspace(0.0, 1.0, 20)[:, None]
+    >>> y_sim = 1.0 + X_sim
     >>> with warnings.catch_warnings(record=True) as caught:
     ...     warnings.simplefilter("always")
-    ...     check_response_ranges(1000 * y_sim[::2], y_sim)
-    >>> "unit mismatch" in str(caught[0].message)
+    ...     check_responses(X_sim[::2], y_sim[::2] / 1000, X_sim, y_sim)
+    >>> "units" in str(caught[0].message)
     True
     """
-    lo, hi = np.nanmin(y_sim, axis=0), np.nanmax(y_sim, axis=0)
+    near = _runs_near(X, X_sim)
+    rows = np.arange(len(Y)) if rows is None else np.asarray(rows)
+    for j in range(Y.shape[1]):
+        finite = np.isfinite(Y[:, j])
+        sims = y_sim[:, j][np.isfinite(y_sim[:, j])]
+        if not finite.any() or sims.size < 2 or np.ptp(sims) <= 0:
+            continue
+        label = _response_label(names, j, Y.shape[1])
+        far = finite & _far_outside(Y[:, j], sims)
+        if 0 < far.sum() <= finite.sum() // 2:
+            _warn_single_readings(label, rows[far], Y[far, j], sims)
+            finite &= ~far
+        obs = Y[finite, j]
+        if obs.size >= 3 and np.ptp(obs) == 0:
+            warn(
+                f"The observations of {label} are all {obs[0]:.6g}: a sensor "
+                "stuck at one value? Its readings carry no information; mark "
+                "them missing (NaN) or leave the response out.",
+                FieldDataWarning,
+            )
+            continue
+        local = y_sim[near, j] if near.sum() >= MIN_NEAR_RUNS else sims
+        cause = _scale_or_sign(obs, local[np.isfinite(local)], sims)
+        if cause is None and near.sum() >= MIN_NEAR_RUNS:
+            cause = _spread(obs, local[np.isfinite(local)])
+        if cause is not None:
+            warn(f"The observations of {label} {cause}", FieldDataWarning)
+
+
+def _runs_near(X, X_sim):
+    """The simulation runs whose design variables lie in the box of ``X``."""
+    lo, hi = X.min(axis=0), X.max(axis=0)
+    if np.any(hi <= lo):  # field inputs that do not vary: no box
+        return np.zeros(len(X_sim), dtype=bool)
+    return np.all((X_sim >= lo) & (X_sim <= hi), axis=1)
+
+
+def _far_outside(y, sims):
+    """Readings more than :data:`OUTLIER_WIDTHS` simulated widths beyond the
+    simulated range, or a logger code anywhere outside it."""
+    lo, hi = sims.min(), sims.max()
     width = hi - lo
-    for j in range(y_sim.shape[1]):
-        obs = y[:, j][np.isfinite(y[:, j])]
-        if not obs.size or width[j] <= 0:
-            continue
-        median = float(np.median(obs))
-        excess = max(lo[j] - median, median - hi[j], 0.0) / width[j]
-        if excess <= RESPONSE_RANGE_FACTOR:
-            continue
-        typical_sim = float(np.median(np.abs(y_sim[:, j])))
-        ratio = abs(median) / typical_sim if typical_sim > 0 else np.inf
-        if names is not None:
-            name = f"response {names[j]!r}"
-        else:
-            name = "the response" if y_sim.shape[1] == 1 else f"response {j}"
-        warn(
-            f"The observations of {name} (column {j} of y) lie far outside "
-            f"the range of its simulations [{lo[j]:.4g}, {hi[j]:.4g}]: their "
-            f"median {median:.4g} is {ratio:.3g} times the simulations' typical "
-            "size. A unit mismatch (mm against m, kN against N) is the usual "
-            "cause; check the units of y against y_sim or the simulator.",
-            UserWarning,
+    with np.errstate(invalid="ignore"):
+        far = (y < lo - OUTLIER_WIDTHS * width) | (y > hi + OUTLIER_WIDTHS * width)
+        code = np.isin(y, LOGGER_CODES) & ((y < lo) | (y > hi))
+    return far | code
+
+
+def _response_label(names, j, q):
+    if names is not None:
+        return f"response {names[j]!r} (column {j} of y)"
+    return "the response" if q == 1 else f"response {j} (column {j} of y)"
+
+
+def _warn_single_readings(label, rows, values, sims):
+    codes = [v for v in values if v in LOGGER_CODES]
+    what = (
+        f"a logger's 'no reading' code ({codes[0]:.6g})"
+        if codes
+        else "slips in single readings"
+    )
+    shown = ", ".join(
+        f"{r}: {v:.6g}" for r, v in zip(rows[:8], values[:8], strict=True)
+    )
+    warn(
+        f"{len(rows)} reading(s) of {label} lie far outside its simulated "
+        f"range [{sims.min():.4g}, {sims.max():.4g}] (row: value {shown}"
+        f"{' ...' if len(rows) > 8 else ''}): {what}? Mark them missing "
+        "(NaN): the noise estimate and every band would otherwise take them "
+        "in.",
+        FieldDataWarning,
+    )
+
+
+def _scale_or_sign(obs, local, sims):
+    """The message of a sign or unit slip of ``obs`` against the simulations
+    (``local``: over the same inputs), or None."""
+    positive, negative = np.mean(local > 0), np.mean(local < 0)
+    if max(positive, negative) >= 0.95:  # simulations of one sign
+        sign = 1.0 if positive >= negative else -1.0
+        # A reversed sign: most readings of the other sign, and of the size
+        # of the simulations (a discrepancy rarely mirrors the model).
+        mirrored = abs(np.log(abs(np.median(obs)) / np.median(np.abs(local))))
+        if np.mean(sign * obs < 0) >= 0.75 and mirrored < np.log(3.0):
+            return (
+                f"have the opposite sign of its simulations (median "
+                f"{np.median(obs):.4g} against {np.median(local):.4g}): a sign "
+                "convention, or a model that predicts the wrong sign here? Check "
+                "the sign of y against y_sim or the simulator."
+            )
+        size = np.abs(obs[obs != 0])
+        if size.size == 0:
+            return None
+        ratio = np.exp(np.median(np.log(size)) - np.median(np.log(np.abs(local))))
+        if ratio > MAGNITUDE_FACTOR or ratio < 1.0 / MAGNITUDE_FACTOR:
+            return (
+                f"are typically {ratio:.3g} times the size of its simulations "
+                f"over the same inputs (median {np.median(obs):.4g} against "
+                f"{np.median(local):.4g}): other units (m against mm, strain "
+                "against microstrain, kN against N)? Check the units of y "
+                "against y_sim or the simulator."
+            )
+        return None
+    lo, hi = sims.min(), sims.max()
+    median = float(np.median(obs))
+    if max(lo - median, median - hi) > hi - lo:
+        return (
+            f"lie far outside the range of its simulations [{lo:.4g}, "
+            f"{hi:.4g}] (median {median:.4g}): other units (mm against m, kN "
+            "against N)? Check the units of y against y_sim or the simulator."
         )
+    return None
+
+
+def _spread(obs, local):
+    """The message of a response that varies far less than its simulations
+    over the same inputs, or None."""
+    q_obs, q_sim = (np.subtract(*np.percentile(a, [75, 25])) for a in (obs, local))
+    if obs.size < 5 or q_sim <= 0 or q_obs >= SPREAD_SHARE * q_sim:
+        return None
+    return (
+        f"spread {q_obs / q_sim:.2g} times as much as its simulations over the "
+        "same inputs (interquartile ranges): a sensor stuck or slipping, or "
+        "other units? Check the readings and their units against y_sim."
+    )
 
 
 def _constant_columns(A):
@@ -306,7 +435,7 @@ def check_simulation_design(X, prior, sims, names=None):
             "of the simulations (widened by one mean spacing of the runs), in "
             f"the design variable(s) {'; '.join(parts)}: the emulator "
             "extrapolates there. Extend the simulation design to cover X.",
-            UserWarning,
+            FieldDataWarning,
         )
 
 
@@ -340,6 +469,46 @@ def _check_prior_coverage(prior, theta_sim, n_sim):
             "simulations to cover the prior, or narrow the prior.",
             UserWarning,
         )
+
+
+def check_same_index(X, y, names=("X", "y")):
+    """Refuse pandas ``X`` and ``y`` whose row indexes differ.
+
+    Rows are paired by position; two tables whose indexes say otherwise (a
+    table sorted the other way, rows dropped from one) would be paired
+    wrongly without a word. Arrays, or one table and one array, are paired
+    by position.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> X = pd.DataFrame({"T": [1.0, 2.0]}, index=[10, 11])
+    >>> check_same_index(X, pd.Series([0.5, 0.7], index=[11, 10]))
+    Traceback (most recent call last):
+    ...
+    ValueError: X and y have the same row labels in another order: ...
+    """
+    first, second = getattr(X, "index", None), getattr(y, "index", None)
+    if first is None or second is None or first.equals(second):
+        return
+    a, b = names
+    if len(first) == len(second) and set(first) == set(second):
+        how = "the same row labels in another order"
+    else:
+        shown = ", ".join(str(v) for v in list(first.difference(second))[:5])
+        how = f"different row labels ({a} has {shown or 'none'} that {b} lacks)"
+    raise ValueError(
+        f"{a} and {b} have {how}: rows are paired by position, which these "
+        f"indexes contradict. Align them first, e.g. {b} = {b}.loc[{a}.index] "
+        f"(or {a}.reset_index(drop=True) and {b}.reset_index(drop=True) when "
+        "position is what pairs them)."
+    )
+
+
+def row_labels(y):
+    """The labels of the rows of ``y``: its pandas index, else 0, 1, ..."""
+    index = getattr(y, "index", None)
+    return np.asarray(index) if index is not None else np.arange(len(y))
 
 
 def prior_names(prior):

@@ -307,7 +307,7 @@ def _posterior_coordinates(X_e, residual, V_fixed, prior, kernel, regression, no
     """The restricted likelihood of module 2 under ``prior``, in the
     unbounded coordinates of :class:`_Coordinates`."""
     kernel_d = discrepancy_kernel(kernel, X_e)
-    if "roughness" in kernel_d.get_params():
+    if "roughness" in kernel_d.get_params() and prior.roughness is not None:
         lo, hi = (np.full(X_e.shape[1], v) for v in prior.roughness)
         kernel_d = bound_roughness(kernel_d, lo, hi)
     check_module2_memory(kernel_d, residual)

@@ -59,8 +59,10 @@ class Hyperprior:
     correlation_eta : float, default=2.0
         Shape of the LKJ prior of the discrepancy correlation between
         responses (1: uniform over correlation matrices).
-    roughness : tuple, default=(0.1, 9.0)
-        Range of the log-uniform prior of the discrepancy roughness.
+    roughness : tuple or None, default=(0.1, 9.0)
+        Range of the log-uniform prior of the discrepancy roughness; None:
+        log-uniform within the discrepancy kernel's own ``roughness_bounds``
+        (draws of the prior, :meth:`rvs`, then need a range).
     noise : tuple, default=(1e-6, 1.0)
         Range of the log-uniform prior of the noise variances.
     """
@@ -98,8 +100,11 @@ class Hyperprior:
         if not (np.isscalar(eta) and np.isfinite(eta) and eta > 0):
             raise ValueError(f"{name}['correlation_eta'] must be a positive number.")
         for key in ("roughness", "noise"):
-            lo, hi = np.asarray(getattr(prior, key), dtype=float).reshape(-1)[:2]
-            if not (np.size(getattr(prior, key)) == 2 and 0 < lo < hi < np.inf):
+            value = getattr(prior, key)
+            if key == "roughness" and value is None:
+                continue  # the kernel's own bounds
+            bounds = np.asarray(value, dtype=float).reshape(-1)
+            if not (bounds.size == 2 and 0 < bounds[0] < bounds[1] < np.inf):
                 raise ValueError(
                     f"{name}[{key!r}] must be a range (low, high) with "
                     f"0 < low < high, got {getattr(prior, key)!r}."
@@ -159,16 +164,25 @@ class Hyperprior:
         return value + float(np.sum(np.log(np.sqrt(2.0 / np.pi) / scale)))
 
     # -------------------------------------------------- draws
-    def rvs(self, d, q, random_state=None):
+    def rvs(self, d, q, random_state=None, roughness_bounds=None):
         """One draw of the hyperparameters (standardised units).
 
         Returns a dict: ``roughness`` (d,), ``sd`` (q,), ``correlation``
-        (q, q) and ``noise`` (q,) variances.
+        (q, q) and ``noise`` (q,) variances. ``roughness_bounds`` (``(low,
+        high)``, each a number or (d,)) is the range of the roughness when
+        this prior's ``roughness`` is None (the kernel's own bounds).
         """
         rng = np.random.default_rng(seed_sequence(random_state))
         log_uniform = stats.loguniform
+        bounds = self.roughness if self.roughness is not None else roughness_bounds
+        if bounds is None:
+            raise ValueError(
+                "discrepancy_prior['roughness'] is None (the kernel's own bounds): "
+                "drawing the prior needs the kernel's roughness_bounds."
+            )
+        lo, hi = (np.broadcast_to(np.asarray(b, dtype=float), (d,)) for b in bounds)
         return {
-            "roughness": log_uniform.rvs(*self.roughness, size=d, random_state=rng),
+            "roughness": log_uniform.rvs(lo, hi, size=d, random_state=rng),
             "sd": np.abs(rng.normal(0.0, self.scales(q), q)),
             "correlation": lkj_correlation(q, self.correlation_eta, rng),
             "noise": log_uniform.rvs(*self.noise, size=q, random_state=rng),

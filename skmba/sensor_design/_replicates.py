@@ -208,7 +208,13 @@ def _draw_from_hyperprior(ctx, rng):
     not depend on it: it is drawn as zero.
     """
     n, q = ctx.n, ctx.q
-    draw = ctx.hyperprior.rvs(ctx.Xs.shape[1], q, random_state=rng)
+    bounds = np.asarray(ctx.kernel_d.roughness_bounds, dtype=float)
+    draw = ctx.hyperprior.rvs(
+        ctx.Xs.shape[1],
+        q,
+        random_state=rng,
+        roughness_bounds=(bounds[..., 0], bounds[..., 1]),
+    )
     R_d = clone(ctx.kernel_d).set_params(roughness=draw["roughness"])(ctx.Xs)
     sigma2_d = draw["correlation"] * np.outer(draw["sd"], draw["sd"])
     delta = _root(R_d) @ rng.standard_normal((n, q)) @ _root(sigma2_d).T

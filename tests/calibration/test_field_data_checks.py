@@ -1,0 +1,159 @@
+"""Field data checked against their simulations on both sides (issue 35).
+
+Every kind of logger slip warns naming the response, and the package's clean
+reference problems (the thesis cantilever and truss, every case of the
+validity suite over seeds) stay silent.
+"""
+
+import re
+import warnings
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from skmba import ModularBayesCalibrator
+from skmba.calibration._field_data import check_responses, check_simulation_design
+from skmba.datasets import make_cantilever, make_truss_bridge
+from skmba.exceptions import FieldDataWarning
+from skmba.priors._theta import check_prior
+from validation.suite import registry
+
+RESPONSES = ("tip_displacement", "energy")
+DATA = make_cantilever(40, 20, responses=RESPONSES, random_state=0)
+
+
+def _field_warnings(y, X=None, data=DATA, names=None):
+    """The FieldDataWarning messages of the checks on field data ``y``."""
+    X = data.X_obs if X is None else X
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        check_responses(X, y, data.X_sim, data.y_sim, names)
+    return [str(w.message) for w in caught if w.category is FieldDataWarning]
+
+
+def _slipped(kind):
+    y = DATA.y_obs.copy()
+    if kind == "metres for mm":
+        y[:, 0] /= 1000.0
+    elif kind == "x0.1":
+        y[:, 0] *= 0.1
+    elif kind == "x1000":
+        y[:, 0] *= 1000.0
+    elif kind == "sign":
+        y[:, 1] *= -1.0
+    elif kind == "stuck":
+        y[:, 0] = y[3, 0]
+    elif kind == "-9999":
+        y[[2, 7], 1] = -9999.0
+    elif kind == "slip":
+        y[5, 0] = 80.0  # one reading in other units (tip range 0.3-5 mm)
+    return y
+
+
+@pytest.mark.parametrize(
+    ("kind", "column", "expected"),
+    [
+        ("metres for mm", 0, r"0\.000\d+ times the size .* other units"),
+        ("x0.1", 0, r"0\.0\d+ times the size .* other units"),
+        ("x1000", 0, r"\d{3} times the size .* other units"),
+        ("sign", 1, r"opposite sign .* sign convention"),
+        ("stuck", 0, r"are all .* stuck at one value"),
+        ("-9999", 1, r"2 reading\(s\) .*row: value 2: -9999, 7: -9999.*no reading"),
+        ("slip", 0, r"1 reading\(s\) .*5: 80.*slips in single readings"),
+    ],
+)
+def test_each_slip_warns_naming_the_response(kind, column, expected):
+    messages = _field_warnings(_slipped(kind), names=list(RESPONSES))
+    assert len(messages) == 1, messages
+    assert f"response {RESPONSES[column]!r} (column {column} of y)" in messages[0]
+    assert re.search(expected, messages[0]), messages[0]
+
+
+def test_a_slip_is_named_by_the_row_label_of_a_table():
+    y = pd.DataFrame(_slipped("-9999"), columns=list(RESPONSES))
+    y.index = pd.date_range("2026-01-01", periods=len(y), freq="h")
+    X = pd.DataFrame(DATA.X_obs, columns=["F"], index=y.index)
+    with pytest.warns(FieldDataWarning, match="2026-01-01T02:00") as record:
+        ModularBayesCalibrator(
+            prior=DATA.prior,
+            discrepancy_uncertainty="plug-in",
+            n_restarts_optimizer=0,
+            n_samples=200,
+            random_state=0,
+        ).fit(
+            X,
+            y,
+            X_sim=pd.DataFrame(DATA.X_sim, columns=["F"]),
+            theta_sim=DATA.theta_sim,
+            y_sim=pd.DataFrame(DATA.y_sim, columns=list(RESPONSES)),
+        )
+    assert [w.filename for w in record if w.category is FieldDataWarning] == [__file__]
+
+
+def test_a_slip_below_the_simulated_range_of_a_two_signed_response():
+    """Strains of both signs: a gauge read in strain, not microstrain, hardly
+    varies next to its simulations."""
+    rng = np.random.default_rng(0)
+    X_sim = rng.uniform(-10, 30, size=(60, 1))
+    y_sim = 40.0 * X_sim + rng.normal(0, 5, size=(60, 1))  # microstrain
+    X = np.linspace(-5, 25, 30)[:, None]
+    y = 38.0 * X + rng.normal(0, 5, size=(30, 1))
+    data = type("D", (), {"X_sim": X_sim, "y_sim": y_sim})
+    assert _field_warnings(y, X, data) == []
+    (message,) = _field_warnings(y * 1e-6, X, data)
+    assert "spread" in message and "units" in message
+
+
+CLEAN = [("cantilever, five responses", lambda seed: _cantilever_case(seed))] + [
+    (f"validity {name}", name) for name in sorted(registry())
+]
+
+
+def _cantilever_case(seed):
+    data = make_cantilever(
+        70,
+        25,
+        responses=(
+            "tip_displacement",
+            "mid_displacement",
+            "quarter_displacement",
+            "tip_rotation",
+            "energy",
+        ),
+        random_state=seed,
+    )
+    return data.X_obs, data.y_obs, data.X_sim, data.theta_sim, data.y_sim, data.prior
+
+
+@pytest.mark.parametrize(("label", "case"), CLEAN, ids=[c[0] for c in CLEAN])
+def test_clean_reference_problems_stay_silent(label, case):
+    """The checks on the package's reference problems and on every case of
+    the validity suite, 10 seeds each: no FieldDataWarning."""
+    for seed in range(10):
+        if callable(case):
+            X, y, X_sim, theta_sim, y_sim, prior = case(seed)
+        else:
+            X, y, X_sim, theta_sim, y_sim, prior, *_ = registry()[case].build(seed)
+        y = np.asarray(y, dtype=float).reshape(len(X), -1)
+        sims = type("S", (), {"X": X_sim, "theta": theta_sim, "y": y_sim})
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", FieldDataWarning)
+            check_responses(X, y, X_sim, np.reshape(y_sim, (len(X_sim), -1)))
+            check_simulation_design(X, check_prior(prior), sims)
+
+
+def test_the_truss_gauges_whose_reality_reverses_the_model_are_named():
+    """The truss' top-heated reality strains some gauges with the opposite
+    sign of the uniformly heated model at the true stiffness (its designed
+    discrepancy): exactly those gauges get the sign warning, the others
+    none."""
+    data = make_truss_bridge(60, 20, random_state=0)
+    model = data.simulator(data.X_obs, np.tile(data.theta_true, (len(data.X_obs), 1)))
+    reversed_ = np.mean(np.sign(model) != np.sign(data.y_obs_true), axis=0) > 0.5
+    assert 0 < reversed_.sum() < len(reversed_)
+    names = list(data.response_names)
+    messages = _field_warnings(data.y_obs, data=data, names=names)
+    warned = {name for name in names if any(f"{name!r}" in m for m in messages)}
+    assert warned == {n for n, r in zip(names, reversed_, strict=True) if r}
+    assert all("opposite sign" in m for m in messages)
