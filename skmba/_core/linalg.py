@@ -401,6 +401,37 @@ def whitened_gls(C, H, Y):
     return GLSFit(H_white=H_white, Q=Q, G=G, beta=beta, residual=residual)
 
 
+def proposal_covariance(cov, floor=1e-8):
+    """``cov`` when it is positive definite, else with its eigenvalues floored.
+
+    For the covariance of a proposal (an importance or quadrature rule's
+    Gaussian or Student-t): any positive definite matrix is a valid
+    proposal, so a singular or slightly indefinite estimate (a posterior
+    concentrated on a ridge, nearly dependent responses) gets its eigenvalues
+    raised to ``floor`` times the largest (above scipy's own singularity
+    tolerance, 2.2e-10 times the largest) instead of an error. Returned
+    unchanged, bit for bit, when its Cholesky factor exists.
+
+    Examples
+    --------
+    >>> C = proposal_covariance(np.ones((2, 2)))
+    >>> bool(np.all(np.linalg.eigvalsh(C) > 0))
+    True
+    """
+    cov = np.atleast_2d(np.asarray(cov, dtype=float))
+    try:
+        np.linalg.cholesky(cov)
+        return cov
+    except np.linalg.LinAlgError:
+        pass
+    values, vectors = np.linalg.eigh(0.5 * (cov + cov.T))
+    finite = np.isfinite(values)
+    top = values[finite].max() if finite.any() else 1.0
+    top = top if top > 0 else 1.0
+    values = np.where(finite, np.maximum(values, floor * top), top)
+    return (vectors * values) @ vectors.T
+
+
 def symmetric_eigh(R, *, what="correlation matrix", rtol=1e-8):
     """Eigendecomposition of a symmetric positive semi-definite matrix.
 

@@ -44,7 +44,7 @@ import numpy as np
 from scipy import optimize, special, stats
 from scipy.stats import qmc
 
-from skmba._core.linalg import FactorizationError
+from skmba._core.linalg import FactorizationError, proposal_covariance
 from skmba._core.progress import as_progress, start_reporter
 from skmba._core.regression import regression_basis
 from skmba._core.validation import seed_sequence
@@ -268,6 +268,7 @@ def _proposal_draws(coords, mode, cov, n_draws, seed):
     module 2 may be wrong (Hesterberg 1995, Technometrics 37).
     """
     m = len(mode)
+    cov = proposal_covariance(cov)
     t_seed, p_seed = seed.spawn(2)
     n_prior = round(PRIOR_SHARE * n_draws)
     halton = qmc.Halton(m + 1, scramble=True, seed=np.random.default_rng(t_seed))

@@ -36,6 +36,8 @@ Examples
 import numpy as np
 from scipy import stats
 
+from skmba._core.linalg import proposal_covariance
+
 #: Stage 2 runs when the stage-1 weights' effective number of nodes is
 #: below this fraction of the number of nodes.
 CONCENTRATION = 0.25
@@ -71,6 +73,7 @@ def gaussian_rule(mean, cov, n, random_state=None):
     1.0
     """
     r = len(mean)
+    cov = proposal_covariance(cov)
     if r == 1:
         x, w = np.polynomial.hermite_e.hermegauss(n)
         sd = np.sqrt(cov[0, 0])

@@ -4,7 +4,7 @@ import pickle
 
 import numpy as np
 import pytest
-from scipy import linalg
+from scipy import linalg, stats
 
 import skmba._core.linalg as _linalg
 from skmba._core.linalg import (
@@ -149,3 +149,20 @@ def test_stacked_whitening_of_a_matrix_not_positive_definite_raises():
     S = np.diag([1.0, -1.0])[None]
     with pytest.raises(np.linalg.LinAlgError):
         stacked_whitening(S, np.ones((2, 1)), 1.0)
+
+
+def test_proposal_covariance_keeps_a_positive_definite_one_and_floors_others():
+    from skmba._core.linalg import proposal_covariance
+
+    A = np.array([[2.0, 0.3], [0.3, 1.0]])
+    np.testing.assert_array_equal(proposal_covariance(A), A)  # bit for bit
+    for bad, smallest, largest in (
+        (np.ones((2, 2)), 2e-8, 2.0),  # rank one
+        (np.array([[1.0, 2.0], [2.0, 1.0]]), 3e-8, 3.0),  # indefinite
+        (np.zeros((3, 3)), 1e-8, 1e-8),  # no scale at all: 1e-8 of a unit one
+    ):
+        C = proposal_covariance(bad)
+        values = np.linalg.eigvalsh(C)
+        assert values.min() == pytest.approx(smallest, rel=1e-6)
+        assert values.max() == pytest.approx(largest, rel=1e-6)
+        stats.multivariate_normal(np.zeros(len(C)), C)  # scipy accepts it

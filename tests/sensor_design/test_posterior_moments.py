@@ -91,3 +91,13 @@ def test_gaussian_rule_moments(r):
     np.testing.assert_allclose(
         log_q, stats.multivariate_normal(mean, cov).logpdf(x).reshape(-1)
     )
+
+
+@pytest.mark.parametrize("r", [1, 2])
+def test_a_singular_proposal_covariance_gives_a_rule_not_a_scipy_error(r):
+    """A posterior concentrated on a ridge (rank-deficient covariance) once
+    ended in scipy's 'allow_singular is False' error."""
+    cov = np.zeros((r, r)) if r == 1 else np.ones((r, r))
+    nodes, log_q, weights = gaussian_rule(np.ones(r), cov, 8, random_state=0)
+    assert np.all(np.isfinite(nodes)) and np.all(np.isfinite(log_q))
+    assert weights.sum() == pytest.approx(1.0)
