@@ -1,7 +1,9 @@
 """Calibration with model discrepancy: the four modules of thesis chapter 4.
 
-Public for its estimator; the files are private and named in pipeline
-order, so that an option value leads to its file:
+Public for its estimator and :class:`Simulations` (a precomputed
+simulation dataset that cross-validation keeps whole); the files are
+private and named in pipeline order, so that an option value leads to its
+file:
 
 =================================  ========================================
 file                               holds
@@ -37,5 +39,6 @@ Examples
 """
 
 from skmba.calibration._estimator import ModularBayesCalibrator
+from skmba.calibration._simulations import Simulations
 
-__all__ = ["ModularBayesCalibrator"]
+__all__ = ["ModularBayesCalibrator", "Simulations"]

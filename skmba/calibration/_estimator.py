@@ -57,7 +57,9 @@ from skmba.calibration._pipeline import (
 )
 from skmba.calibration._settings import PARAMETER_TABLE, CalibrationSettings
 from skmba.calibration._simulations import (
+    Simulations,
     check_failed_runs,
+    check_not_sliced,
     checked_prior,
     given_simulations,
     kept_simulator_runs,
@@ -362,7 +364,7 @@ class ModularBayesCalibrator(
         self.verbose = verbose
 
     # -------------------------------------------------------------- fit
-    def fit(self, X, y, *, X_sim=None, theta_sim=None, y_sim=None):
+    def fit(self, X, y, *, X_sim=None, theta_sim=None, y_sim=None, simulations=None):
         """Run modules 1-3 (module 4 runs at prediction time).
 
         Parameters
@@ -380,7 +382,13 @@ class ModularBayesCalibrator(
             those are named (their order may differ; different names are a
             ValueError listing both); arrays by position. Rows of ``y_sim``
             with NaN or inf (failed runs) are left out and listed in
-            ``simulation_failures_``.
+            ``simulation_failures_``. Under scikit-learn's cross-validation,
+            which slices fit parameters with as many rows as ``X``, pass
+            ``simulations`` instead.
+        simulations : Simulations, optional
+            The same dataset as one object
+            (:class:`skmba.calibration.Simulations`), which cross-validation
+            passes to every fold whole.
 
         Returns
         -------
@@ -411,6 +419,24 @@ class ModularBayesCalibrator(
         # block (n q) decides for modules 2-4 in this process; the emulator's
         # fit and the simulation block take threads by their own size, and
         # joblib tasks their share of the cores.
+        if simulations is None:
+            check_not_sliced(X, X_sim)
+        else:
+            if not isinstance(simulations, Simulations):
+                raise TypeError(
+                    "simulations must be a skmba.calibration.Simulations(X_sim, "
+                    f"theta_sim, y_sim), got {type(simulations).__name__}."
+                )
+            if any(a is not None for a in (X_sim, theta_sim, y_sim)):
+                raise ValueError(
+                    "Pass the simulations either as simulations=Simulations(...) "
+                    "or as X_sim, theta_sim and y_sim, not both."
+                )
+            X_sim, theta_sim, y_sim = (
+                simulations.X_sim,
+                simulations.theta_sim,
+                simulations.y_sim,
+            )
         partial = {}
         try:
             with blas_threads(field_order(y)):

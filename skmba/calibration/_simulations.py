@@ -16,6 +16,7 @@ array([[3.],
        [3.]])
 """
 
+import sys
 import time
 from collections import Counter
 from dataclasses import dataclass
@@ -279,6 +280,64 @@ def _simulation_arrays(X_sim, theta_sim, y_sim):
             "simulation dataset, or None and a simulator."
         )
     return X_sim, theta_sim, y_sim
+
+
+@dataclass(frozen=True)
+class Simulations:
+    """A precomputed simulation dataset, kept whole by cross-validation.
+
+    ``fit(X, y, simulations=Simulations(X_sim, theta_sim, y_sim))`` is
+    ``fit(X, y, X_sim=X_sim, theta_sim=theta_sim, y_sim=y_sim)``, except
+    that scikit-learn's cross-validation (``GridSearchCV``,
+    ``cross_val_score``), which slices every fit parameter with as many rows
+    as ``X`` along with the folds, passes this one object to each fold as
+    it is.
+
+    Parameters
+    ----------
+    X_sim : array-like or DataFrame of shape (N, d)
+        The design variables of the runs.
+    theta_sim : array-like or DataFrame of shape (N, r)
+        Their calibration parameters.
+    y_sim : array-like or DataFrame of shape (N, q)
+        Their responses (NaN rows: failed runs).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skmba.calibration import Simulations
+    >>> sims = Simulations(np.zeros((3, 1)), np.ones((3, 1)), np.ones((3, 2)))
+    >>> len(sims.y_sim)
+    3
+    """
+
+    X_sim: object
+    theta_sim: object
+    y_sim: object
+
+
+def check_not_sliced(X, X_sim):
+    """Refuse simulation arrays that scikit-learn's cross-validation has
+    probably sliced: as many rows as the field data ``X``, in a fit called
+    from ``sklearn.model_selection`` (which slices every fit parameter of
+    that length with the folds)."""
+    if not (hasattr(X_sim, "__len__") and hasattr(X, "__len__")):
+        return
+    n_runs = len(X_sim)
+    if n_runs != len(X):
+        return
+    frame = sys._getframe(1)
+    while frame is not None:
+        if frame.f_globals.get("__name__", "").startswith("sklearn.model_selection"):
+            raise ValueError(
+                f"X_sim, theta_sim and y_sim have as many rows as X ({n_runs}) "
+                "in a fit called by scikit-learn's model selection, which "
+                "slices every fit parameter of that length with the folds: "
+                "each fold would get a fraction of the runs. Pass them as one "
+                "object, fit(X, y, simulations=skmba.calibration.Simulations("
+                "X_sim, theta_sim, y_sim)), which is passed to every fold whole."
+            )
+        frame = frame.f_back
 
 
 def given_simulations(X, q, X_sim, theta_sim, y_sim):

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from skmba import ModularBayesCalibrator
-from skmba.calibration._field_data import check_response_ranges
+from skmba.calibration._field_data import check_responses
 from skmba.calibration._simulations import (
     SimulationData,
     SimulationFailure,
@@ -187,5 +187,41 @@ def test_a_unit_slip_is_named_by_the_response_name():
         match=r"The observations of response 'energy' \(column 1 of y\) lie far "
         r"outside the range of its simulations",
     ) as record:
-        check_response_ranges(y, y_sim, ["tip", "energy"])
+        X_sim = np.linspace(0.0, 1.0, 20)[:, None]
+        check_responses(X_sim[::2], y, X_sim, y_sim, ["tip", "energy"])
     assert len(record) == 1
+
+
+def test_cross_validation_keeps_the_simulations_whole_or_says_it_would_not():
+    """GridSearchCV slices fit parameters with as many rows as X: simulations
+    of that size are refused there with the remedy, and Simulations(...)
+    reaches every fold whole."""
+    from sklearn.model_selection import GridSearchCV
+
+    from skmba.calibration import Simulations
+
+    data = make_cantilever(24, 24, random_state=0)
+    cal = ModularBayesCalibrator(
+        prior=data.prior,
+        discrepancy_uncertainty="plug-in",
+        n_restarts_optimizer=0,
+        n_samples=200,
+        random_state=0,
+    )
+    search = GridSearchCV(cal, {"noise": [True]}, cv=2, error_score="raise")
+    arrays = dict(X_sim=data.X_sim, theta_sim=data.theta_sim, y_sim=data.y_sim)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", NonIdentifiabilityWarning)
+        with pytest.raises(
+            ValueError, match=r"slices every fit parameter.*Simulations"
+        ):
+            search.fit(data.X_obs, data.y_obs, **arrays)
+        whole = Simulations(data.X_sim, data.theta_sim, data.y_sim)
+        search.fit(data.X_obs, data.y_obs, simulations=whole)
+        # outside model selection, the same arrays are simply used
+        cal.fit(data.X_obs, data.y_obs, **arrays)
+    assert len(search.best_estimator_.X_sim_) == 24
+    with pytest.raises(TypeError, match=r"skmba\.calibration\.Simulations"):
+        cal.fit(data.X_obs, data.y_obs, simulations=tuple(arrays.values()))
+    with pytest.raises(ValueError, match="not both"):
+        cal.fit(data.X_obs, data.y_obs, simulations=whole, X_sim=data.X_sim)
