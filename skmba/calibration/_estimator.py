@@ -470,7 +470,7 @@ class ModularBayesCalibrator(
             one_parameter_rule(name, getattr(self, name), prior.dim, several=other)
         progress = Progress(self.verbose, "ModularBayesCalibrator")
         sims = simulations_for(
-            settings, X, Y.shape[1], prior, given, seeds[0], progress
+            settings, X, Y.shape[1], prior, given, seeds[0], progress, responses
         )
         partial["simulations"] = sims
         check_failed_runs(sims, self.regression, X.shape[1] + prior.dim)

@@ -163,8 +163,9 @@ def module2_prior(settings, X, q):
     return ranges
 
 
-def simulations_for(settings, X, q, prior, given, seed, progress):
-    """The given runs and the simulator's runs (Latin hypercube)."""
+def simulations_for(settings, X, q, prior, given, seed, progress, names=None):
+    """The given runs and the simulator's runs (Latin hypercube); a table
+    output of the simulator is matched to the responses ``names``."""
     k = X.shape[1] + prior.dim
     simulator = settings.simulator
     n_runs = (settings.n_simulations or 10 * k) if simulator is not None else 0
@@ -173,7 +174,9 @@ def simulations_for(settings, X, q, prior, given, seed, progress):
         settings.emulator.regression,
         k,
     )
-    return collect_simulations(simulator, X, q, prior, given, n_runs, seed, progress)
+    return collect_simulations(
+        simulator, X, q, prior, given, n_runs, seed, progress, names
+    )
 
 
 def run_modules(settings, X, Y, sims, prior, module2_spec, seeds, progress):

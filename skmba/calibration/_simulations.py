@@ -26,6 +26,7 @@ import numpy as np
 from scipy import sparse, stats
 from sklearn.utils.validation import check_array
 
+from skmba._core.columns import match_columns
 from skmba._core.progress import as_progress
 from skmba._core.regression import n_regression_terms
 from skmba._core.warn import warn
@@ -143,7 +144,9 @@ def check_2d(A, name, shape):
 
 
 # ------------------------------------------------------------- simulator
-def _check_simulator_output(Y, n, q, first=0):
+def _check_simulator_output(Y, n, q, first=0, names=None):
+    # A table is matched to the responses by column label, as y_sim is.
+    Y = match_columns(Y, names, "the simulator's output", "the columns of y")
     try:
         Y = np.asarray(Y, dtype=float)
     except (TypeError, ValueError) as exc:
@@ -193,7 +196,7 @@ def _output_text(row):
     return f"non-finite output [{values}{', ...' if len(row) > 6 else ''}]"
 
 
-def run_simulator(simulator, X, theta, q):
+def run_simulator(simulator, X, theta, q, names=None):
     """Run ``simulator(X, theta)`` on blocks of runs; keep what succeeds.
 
     The whole design is one call. When a call raises, its block is halved
@@ -237,7 +240,7 @@ def run_simulator(simulator, X, theta, q):
                 half = len(rows) // 2
                 blocks += [rows[half:], rows[:half]]
             continue
-        Y[rows] = _check_simulator_output(out, len(rows), q, rows[0])
+        Y[rows] = _check_simulator_output(out, len(rows), q, rows[0], names)
     for i in nonfinite_rows(Y):
         errors.setdefault(int(i), _output_text(Y[i]))
     Y[list(errors)] = np.nan
@@ -432,7 +435,9 @@ def simulation_design(X, prior, n_runs, given, seed):
     return X_run, theta_run
 
 
-def collect_simulations(simulator, X, q, prior, given, n_runs, seed, progress=None):
+def collect_simulations(
+    simulator, X, q, prior, given, n_runs, seed, progress=None, names=None
+):
     """The given runs and ``n_runs`` simulator runs, stacked, failures apart.
 
     The successful runs form the data; the failed ones (see
@@ -450,7 +455,7 @@ def collect_simulations(simulator, X, q, prior, given, n_runs, seed, progress=No
         X_run, theta_run = simulation_design(X, prior, n_runs, given, seed)
         started = time.perf_counter()
         with progress.bar(n_runs, "simulator", unit="run") as bar:
-            runs = run_simulator(simulator, X_run, theta_run, q)
+            runs = run_simulator(simulator, X_run, theta_run, q, names)
             bar.update(n_runs)
         progress.info(
             f"simulator: {n_runs} runs in {runs.n_calls} call(s), "

@@ -19,12 +19,17 @@ from joblib import delayed
 from sklearn.base import BaseEstimator
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from skmba._core.columns import column_names, parameters_last, response_index
+from skmba._core.columns import (
+    column_names,
+    match_columns,
+    parameters_last,
+    response_index,
+)
 from skmba._core.progress import Progress, results_as_ready
 from skmba._core.threads import BlasTask, blas_threads
 from skmba._core.validation import int_seed, seed_sequence, validate_parameter_table
 from skmba.calibration._estimator import ModularBayesCalibrator
-from skmba.calibration._field_data import prior_names
+from skmba.calibration._field_data import check_same_index, prior_names
 from skmba.calibration._module1_emulator import Standardizer, fit_emulator
 from skmba.calibration._settings import PARAMETER_TABLE as CALIBRATION_TABLE
 from skmba.calibration._settings import CalibrationSettings
@@ -126,9 +131,10 @@ class PreposteriorDesigner(BaseEstimator):
         Uniform prior of each response's noise variance, relative to the
         response's variance in the simulations (scalars or arrays of length
         ``q``). None means ``(0, 1e-4)`` (Table 6.2).
-    X_design : array-like of shape (n, d), default=None
+    X_design : array-like or DataFrame of shape (n, d), default=None
         The planned field inputs (design variables). It must lie inside the
-        range of the simulations.
+        range of the simulations. A DataFrame is matched by column label to
+        the design-variable columns of a table ``X`` (its order may differ).
     n_design : int, default=None
         When ``X_design`` is None, a Latin hypercube of ``n_design`` points
         over the range of the simulated design variables (None means 25, as
@@ -366,7 +372,7 @@ class PreposteriorDesigner(BaseEstimator):
             self._parameter_table, self.get_params(deep=False), type(self).__name__
         )
         names = column_names(y)
-        X, Y = self._simulations(X, y)
+        X, Y, columns = self._simulations(X, y)
         prior, d = designer_prior(self.prior, self.calibrator, X)
         q = Y.shape[1]
         max_size = check_max_size(self.max_responses, q)
@@ -389,7 +395,7 @@ class PreposteriorDesigner(BaseEstimator):
             progress=self._progress(),
         )
         priors = synthetic_data_priors(self.get_params(), d, q, scaler.y_scale)
-        X_design = field_design(self.X_design, self.n_design, X_sim, seeds[2])
+        X_design = self._field_design(columns, X_sim, seeds[2])
         ctx = MonteCarloContext.build(
             settings,
             emulator,
@@ -431,14 +437,26 @@ class PreposteriorDesigner(BaseEstimator):
         return self
 
     def _simulations(self, X, y):
-        """The simulations checked: parameters last, C-ordered float arrays."""
+        """The simulations checked: parameters last, C-ordered float arrays,
+        and the column labels of a table ``X`` in that order (else None)."""
+        check_same_index(X, y)
         # A table's parameter columns are found by the prior's names.
         X = parameters_last(X, prior_names(given_prior(self.prior, self.calibrator)))
+        columns = column_names(X)
         X, y = validate_data(self, X, y, multi_output=True, y_numeric=True)
         # C order whatever the input's (a DataFrame gives Fortran order): the
         # same bits as from an array.
         X = np.ascontiguousarray(X, dtype=float)
-        return X, np.ascontiguousarray(y, dtype=float).reshape(len(X), -1)
+        return X, np.ascontiguousarray(y, dtype=float).reshape(len(X), -1), columns
+
+    def _field_design(self, columns, X_sim, seed):
+        """The planned field inputs; a table ``X_design`` matched by name to
+        the design columns of a table ``X`` (``columns``, parameters last)."""
+        names = None if columns is None else columns[: X_sim.shape[1]]
+        X_design = match_columns(
+            self.X_design, names, "X_design", "the design-variable columns of X"
+        )
+        return field_design(X_design, self.n_design, X_sim, seed)
 
     def _phase1(self, ctx, sequences):
         """Step 2, phase 1: the replicates (and, with ``fast``, their module

@@ -29,7 +29,7 @@ import skmba.calibration._module4_prediction as prediction_module
 import skmba.calibration._pipeline as mba_module
 from skmba import ModularBayesCalibrator
 from skmba.datasets import make_cantilever
-from skmba.exceptions import NonIdentifiabilityWarning
+from skmba.exceptions import FieldDataWarning, NonIdentifiabilityWarning
 
 
 @pytest.mark.parametrize("treatment", ["plug-in", "propagate"])
@@ -634,11 +634,10 @@ BAD_INPUT = [
     ),
     case(
         "units-mix-up",
-        UserWarning,
-        r"The observations of response 1 \(column 1 of y\) lie far outside the "
-        r"range of its simulations .*: their median .* is \d+ times the "
-        r"simulations' typical size. A unit mismatch "
-        r"\(mm against m, kN against N\) is the usual cause",
+        FieldDataWarning,
+        r"The observations of response 1 \(column 1 of y\) are typically \d+ "
+        r"times the size of its simulations over the same inputs .*: other "
+        r"units \(m against mm, strain against microstrain, kN against N\)\?",
         y=BAD.y_obs * [1.0, 1000.0],
     ),
     case(
@@ -819,16 +818,21 @@ def test_constant_field_data():
     with pytest.warns(UserWarning, match=r"X has 1 distinct row\(s\): .* prior"):
         cal.fit(X, y, **SIMS)
     assert cal.theta_mean_[0] == pytest.approx(60e3, rel=1e-6)
-    # A response observed as constant is no error either.
+    # A response observed as constant is no error either, but a stuck gauge
+    # is named (and nothing else fires).
     y_constant = np.column_stack([BAD.y_obs[:, 0], np.full(10, 0.5)])
     cal = ModularBayesCalibrator(prior=BAD.prior, n_restarts_optimizer=0)
-    with warnings.catch_warnings():
-        warnings.simplefilter("error", UserWarning)  # none of the checks fires
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
         warnings.simplefilter("ignore", ConvergenceWarning)
         # E and the discrepancy are confounded on this design (the thesis
         # cantilever), which is said whatever the data.
         warnings.simplefilter("ignore", NonIdentifiabilityWarning)
         cal.fit(BAD.X_obs, y_constant, **SIMS)
+    assert [str(w.message)[:60] for w in caught] == [
+        "The observations of response 1 (column 1 of y) are all 0.5: "
+    ]
+    assert caught[0].category is FieldDataWarning
     assert np.all(np.isfinite(cal.theta_mean_)) and np.all(cal.noise_ > 0)
 
 

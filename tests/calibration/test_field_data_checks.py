@@ -157,3 +157,86 @@ def test_the_truss_gauges_whose_reality_reverses_the_model_are_named():
     warned = {name for name in names if any(f"{name!r}" in m for m in messages)}
     assert warned == {n for n, r in zip(names, reversed_, strict=True) if r}
     assert all("opposite sign" in m for m in messages)
+
+
+def _two_tables():
+    X = pd.DataFrame(DATA.X_obs, columns=["F"])
+    y = pd.DataFrame(DATA.y_obs, columns=list(RESPONSES))
+    return X, y
+
+
+@pytest.mark.parametrize("how", ["reversed", "shifted"])
+def test_tables_with_different_indexes_are_refused(how):
+    X, y = _two_tables()
+    if how == "reversed":  # one table sorted the other way
+        y = y.iloc[::-1]
+    else:  # the logger's table starts one hour later
+        y = y.set_axis(y.index + 1)
+    expected = "another order" if how == "reversed" else "different row labels"
+    sims = dict(X_sim=DATA.X_sim, theta_sim=DATA.theta_sim, y_sim=DATA.y_sim)
+    cal = ModularBayesCalibrator(prior=DATA.prior)
+    with pytest.raises(
+        ValueError, match=rf"X and y have .*{expected}.*loc\[X\.index\]"
+    ):
+        cal.fit(X, y, **sims)
+
+
+def test_integer_labels_are_labels():
+    """Simulation tables with integer column labels in another order are
+    matched by label, as string labels are (they were taken by position)."""
+    X = pd.DataFrame(DATA.X_obs)  # label 0
+    y = pd.DataFrame(DATA.y_obs)  # labels 0, 1
+    y_sim = pd.DataFrame(DATA.y_sim)[[1, 0]]  # the simulator's order
+    params = dict(
+        prior=DATA.prior,
+        discrepancy_uncertainty="plug-in",
+        n_restarts_optimizer=0,
+        n_samples=200,
+        random_state=0,
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        by_label = ModularBayesCalibrator(**params).fit(
+            X, y, X_sim=pd.DataFrame(DATA.X_sim), theta_sim=DATA.theta_sim, y_sim=y_sim
+        )
+        arrays = ModularBayesCalibrator(**params).fit(
+            DATA.X_obs,
+            DATA.y_obs,
+            X_sim=DATA.X_sim,
+            theta_sim=DATA.theta_sim,
+            y_sim=DATA.y_sim,
+        )
+    np.testing.assert_array_equal(by_label.y_sim_, arrays.y_sim_)
+    np.testing.assert_array_equal(by_label.theta_mean_, arrays.theta_mean_)
+    with pytest.raises(ValueError, match="do not match"):
+        ModularBayesCalibrator(**params).fit(
+            X,
+            y,
+            X_sim=pd.DataFrame(DATA.X_sim, columns=[5]),
+            theta_sim=DATA.theta_sim,
+            y_sim=y_sim,
+        )
+
+
+def test_a_simulator_returning_a_table_is_matched_by_response_name():
+    model = DATA.simulator
+
+    def simulator(X, theta):  # the FE program writes its columns its own way
+        return pd.DataFrame(model(X, theta), columns=list(RESPONSES))[
+            ["energy", "tip_displacement"]
+        ]
+
+    params = dict(
+        prior=DATA.prior,
+        n_simulations=30,
+        discrepancy_uncertainty="plug-in",
+        n_restarts_optimizer=0,
+        n_samples=200,
+        random_state=0,
+    )
+    y = pd.DataFrame(DATA.y_obs, columns=list(RESPONSES))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        cal = ModularBayesCalibrator(simulator, **params).fit(DATA.X_obs, y)
+        plain = ModularBayesCalibrator(model, **params).fit(DATA.X_obs, DATA.y_obs)
+    np.testing.assert_array_equal(cal.y_sim_, plain.y_sim_)

@@ -497,3 +497,35 @@ def test_parameter_columns_of_a_table_found_by_the_prior_names(small, exhaustive
         r"\(its keys: \['modulus'\]; the columns of X: \['E', 'F'\]\)",
     ):
         designer({"modulus": data.prior[0]}).fit(table, data.y_sim)
+
+
+def test_a_named_X_design_is_matched_to_the_design_columns_by_name():
+    """X_design as a table in another column order than the simulations
+    gives the scores of the same design as an array; unknown names fail."""
+    import pandas as pd
+
+    from skmba import ModularBayesCalibrator, PreposteriorDesigner
+    from skmba.datasets import make_cantilever
+
+    data = make_cantilever(40, design_variables=("force", "moment"), random_state=0)
+    names = list(data.design_variable_names)
+    X = pd.DataFrame(np.hstack([data.X_sim, data.theta_sim]), columns=[*names, "E"])
+    lo, hi = data.X_sim.min(axis=0), data.X_sim.max(axis=0)
+    X_design = lo + (hi - lo) * np.array([[0.1, 0.9], [0.5, 0.2], [0.8, 0.6]])
+
+    def scores(design):
+        designer = PreposteriorDesigner(
+            {"E": data.prior[0]},
+            calibrator=ModularBayesCalibrator(n_restarts_optimizer=0),
+            X_design=design,
+            n_mc=4,
+            random_state=0,
+        )
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return designer.fit(X, data.y_sim).scores_
+
+    table = pd.DataFrame(X_design, columns=names)[names[::-1]]
+    np.testing.assert_array_equal(scores(table), scores(X_design))
+    with pytest.raises(ValueError, match="do not match the design-variable columns"):
+        scores(table.rename(columns={names[0]: "load"}))
