@@ -212,3 +212,18 @@ def results_as_ready(tasks, n_jobs=None):
     except ValueError:  # the backend cannot return a generator
         parallel = Parallel(n_jobs=n_jobs)
     yield from parallel(tasks)
+
+
+def duration_text(seconds):
+    """A time for people: ``"40 s"``, ``"12 min"``, ``"3.5 h"``.
+
+    Examples
+    --------
+    >>> duration_text(40.2), duration_text(725.0), duration_text(12600.0)
+    ('40 s', '12 min', '3.5 h')
+    """
+    if seconds < 120:
+        return f"{seconds:.0f} s"
+    if seconds < 7200:
+        return f"{seconds / 60:.0f} min"
+    return f"{seconds / 3600:.1f} h"

@@ -54,6 +54,7 @@ from skmba.calibration._pipeline import (
     module2_prior,
     run_modules,
     simulations_for,
+    warn_field_size,
 )
 from skmba.calibration._settings import PARAMETER_TABLE, CalibrationSettings
 from skmba.calibration._simulations import (
@@ -459,6 +460,7 @@ class ModularBayesCalibrator(
         X, Y, y_ndim, responses, tables, rows = self._field_data(
             X, y, X_sim, theta_sim, y_sim
         )
+        warn_field_size(int(np.isfinite(Y).sum()), len(Y), settings)
         # Before any simulation runs: a bad range must not waste them.
         module2_spec = module2_prior(settings, X, Y.shape[1])
         # One child of the seed per random step: the simulation design, then

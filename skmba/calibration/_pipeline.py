@@ -35,10 +35,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from skmba._core.linalg import FEWER_FIELD_DATA, FLOAT_BYTES, check_memory, n_workers
+from skmba._core.progress import duration_text
 from skmba._core.regression import n_regression_terms
+from skmba._core.warn import warn
 from skmba.calibration._module1_emulator import Standardizer, fit_emulator
 from skmba.calibration._module2_plug_in import fit_discrepancy
 from skmba.calibration._module2_posterior import (
+    N_HYPER_DRAWS,
     HyperposteriorDraws,
     fit_hyperposterior,
     propagated_module2,
@@ -114,6 +117,36 @@ class ModulesResult:
     module2: HyperposteriorDraws
     module3: Module3Result
     identifiability: object
+
+
+#: Measured field values (entries of y) above which ``fit`` warns about its
+#: cost before it starts.
+FIELD_VALUES_WARNING = 500
+#: The reference of the time estimate: the cantilever's defaults with 200
+#: measured values (100 readings of 2 responses) took 12.4 s on two cores
+#: (50 values: 1.1 s, 100: 2.8 s); the time grows as the cube beyond.
+REFERENCE_FIELD_FIT = (200, 12.4)
+
+
+def warn_field_size(n_values, n_readings, settings):
+    """Warn before a fit whose ``n_values`` measured field values (of
+    ``n_readings`` rows) make modules 2-3 long: their ``m x m``
+    factorisations, ``m = n_values``, cost ``m^3``, thousands of them."""
+    if n_values <= FIELD_VALUES_WARNING:
+        return
+    seconds = REFERENCE_FIELD_FIT[1] * (n_values / REFERENCE_FIELD_FIT[0]) ** 3
+    draws = N_HYPER_DRAWS if settings.propagate else 1
+    gib = FLOAT_BYTES * 6 * draws * n_values**2 / 2**30  # as check_global_memory
+    warn(
+        f"{n_readings} field readings hold {n_values} measured values: modules "
+        f"2-3 factor {n_values} x {n_values} matrices thousands of times, at a "
+        f"cost growing as the cube of that number (200 values take about "
+        f"{REFERENCE_FIELD_FIT[1]:.0f} s on two cores): expect of the order "
+        f"of {duration_text(seconds)} and {gib:.1f} GiB. Average the readings "
+        "repeated at the same inputs (as many in each mean), bin close "
+        "inputs, or subsample the readings before fitting.",
+        UserWarning,
+    )
 
 
 def check_global_memory(N, n, q, P, jobs, draws=1):

@@ -36,7 +36,7 @@ from joblib import Parallel, delayed, effective_n_jobs
 from scipy import special, stats
 from scipy.linalg import solve_triangular
 
-from skmba._core.progress import results_as_ready
+from skmba._core.progress import duration_text, results_as_ready
 from skmba._core.threads import BlasTask
 from skmba._core.validation import int_seed
 from skmba._core.warn import warn
@@ -217,14 +217,14 @@ def _announce(seconds, n_evaluations, n_tasks, n_jobs, progress):
     workers = max(1, min(n_tasks, effective_n_jobs(n_jobs)))
     expected = seconds * n_tasks / workers
     progress.info(
-        f"phase 2: expected time about {_duration(expected)} (first task: "
+        f"phase 2: expected time about {duration_text(expected)} (first task: "
         f"{n_evaluations} evaluations in {seconds:.2f} s; {n_tasks} tasks on "
         f"{workers} worker(s))"
     )
     if expected > LONG_SEARCH_SECONDS:
         warn(
             f"The exhaustive search is expected to take about "
-            f"{_duration(expected)} ({n_tasks} tasks of about {seconds:.1f} s "
+            f"{duration_text(expected)} ({n_tasks} tasks of about {seconds:.1f} s "
             f"on {workers} worker(s)). It goes on; to shorten it, interrupt "
             "and lower n_mc, set max_responses, use search='greedy' or "
             "'genetic', or raise n_jobs.",
@@ -238,21 +238,6 @@ def _timed_posterior_block(ctx, replicates, subsets):
     started = time.perf_counter()
     moments = posterior_block(ctx, replicates, subsets)
     return moments, time.perf_counter() - started
-
-
-def _duration(seconds):
-    """A time for people: ``"40 s"``, ``"12 min"``, ``"3.5 h"``.
-
-    Examples
-    --------
-    >>> _duration(40.2), _duration(725.0), _duration(12600.0)
-    ('40 s', '12 min', '3.5 h')
-    """
-    if seconds < 120:
-        return f"{seconds:.0f} s"
-    if seconds < 7200:
-        return f"{seconds / 60:.0f} min"
-    return f"{seconds / 3600:.1f} h"
 
 
 def jackknife_mcse(covs, score):

@@ -240,3 +240,32 @@ def test_a_simulator_returning_a_table_is_matched_by_response_name():
         cal = ModularBayesCalibrator(simulator, **params).fit(DATA.X_obs, y)
         plain = ModularBayesCalibrator(model, **params).fit(DATA.X_obs, DATA.y_obs)
     np.testing.assert_array_equal(cal.y_sim_, plain.y_sim_)
+
+
+def test_a_large_field_data_set_warns_before_the_fit_starts():
+    """2000 readings of 2 responses: the estimate and the remedy come before
+    anything runs (here the fit then stops at a bad simulation table)."""
+    X = np.linspace(1e3, 10e3, 2000)[:, None]
+    y = np.column_stack([X[:, 0] * 1e-3, X[:, 0] ** 2 * 1e-4])
+    cal = ModularBayesCalibrator(prior=DATA.prior)
+    with pytest.warns(
+        UserWarning, match=r"2000 field readings hold 4000 measured"
+    ) as w:
+        with pytest.raises(ValueError, match="same number of rows"):
+            cal.fit(
+                X, y, X_sim=DATA.X_sim, theta_sim=DATA.theta_sim[:5], y_sim=DATA.y_sim
+            )
+    (message,) = [str(r.message) for r in w if "measured values" in str(r.message)]
+    assert re.search(r"expect of the order of [\d.]+ h and [\d.]+ GiB", message)
+    assert "Average the readings repeated at the same inputs" in message
+    # 500 values or fewer: no such warning
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)
+        with pytest.raises(ValueError, match="same number of rows"):
+            cal.fit(
+                X[:250],
+                y[:250],
+                X_sim=DATA.X_sim,
+                theta_sim=DATA.theta_sim[:5],
+                y_sim=DATA.y_sim,
+            )
