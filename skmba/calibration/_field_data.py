@@ -161,7 +161,8 @@ def checked_field_y(y):
 
 def measured_r2(Y, pred, sample_weight=None):
     """scikit-learn's R² averaged uniformly over the columns of ``Y`` (s, q),
-    each over its measured (finite) entries only.
+    each over its measured (finite) entries only; a column with fewer than
+    two readings in these rows is left out of the average.
 
     Examples
     --------
@@ -174,8 +175,15 @@ def measured_r2(Y, pred, sample_weight=None):
     scores = []
     for j in range(Y.shape[1]):
         m = np.isfinite(Y[:, j])
+        if m.sum() < 2:  # R² needs a spread: a response without it is left out
+            continue
         scores.append(
             r2_score(Y[m, j], pred[m, j], sample_weight=None if w is None else w[m])
+        )
+    if not scores:
+        raise ValueError(
+            "y has fewer than two readings of every response in these rows: "
+            "R² is not defined. Score on more rows (or with fewer gaps)."
         )
     return float(np.mean(scores))
 

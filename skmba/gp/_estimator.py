@@ -27,6 +27,7 @@ from sklearn.base import BaseEstimator, MultiOutputMixin, RegressorMixin, clone
 from sklearn.gaussian_process.kernels import Kernel
 from sklearn.utils.validation import check_is_fitted, validate_data
 
+from skmba._core.columns import column_names
 from skmba._core.regression import REGRESSIONS, n_regression_terms, regression_basis
 from skmba._core.threads import blas_threads
 from skmba._core.validation import (
@@ -197,6 +198,10 @@ class MultiResponseGP(PredictionMixin, MultiOutputMixin, RegressorMixin, BaseEst
     n_features_in_ : int
     feature_names_in_ : ndarray of str
         Only when ``X`` has feature names.
+    response_names_ : list of str or None
+        The column names of ``y`` when it is a pandas DataFrame, else None
+        (:func:`skmba.plotting.plot_gp_prediction` labels the responses by
+        them).
 
     See Also
     --------
@@ -336,7 +341,9 @@ class MultiResponseGP(PredictionMixin, MultiOutputMixin, RegressorMixin, BaseEst
         validate_parameter_table(
             self._parameter_table, self.get_params(deep=False), type(self).__name__
         )
+        names = column_names(y)
         X, Y = self._validate_training_data(X, y)
+        self.response_names_ = names
         n = X.shape[0]
         kernel, H, p = self._check_design(X, Y)
         self.X_train_ = X

@@ -109,7 +109,8 @@ def plot_gp_prediction(
         Add the fitted noise variance ``gp.noise_`` to the variance, for a
         band of a new (noisy) measurement.
     names, units : list of str, default=None
-        Names and units of the ``q`` responses.
+        Names and units of the ``q`` responses; None takes the
+        ``response_names_`` of a ``gp`` fitted on a DataFrame ``y``.
     input_names : list of str, default=None
         Labels of the inputs (with their units), e.g. ``["force [N]"]``;
         None takes the ``feature_names_in_`` of a ``gp`` fitted on a
@@ -175,6 +176,8 @@ def plot_gp_prediction(
         points = np.vstack([s.points for s in slices])
     mean, std = _predicted_bands(gp, points, include_noise)
     q = mean.shape[1]
+    if names is None:
+        names = recorded_names(gp, "response_names_", q, "responses")
     names = labels(names, q, "y", "responses")
     units = unit_labels(units, q, "responses")
     drawn = _drawn_responses(response, names)

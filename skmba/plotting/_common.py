@@ -20,6 +20,7 @@ Examples
 """
 
 import numpy as np
+from sklearn.exceptions import NotFittedError
 
 # Half-width of a 95 % Gaussian band, in standard deviations.
 Z95 = 1.96
@@ -186,3 +187,18 @@ def draw_band(ax, x, mean, std, color, label):
     )
     ax.plot(x, mean, color=color, linewidth=1.8, label="mean")
     return band
+
+
+def not_fitted_or_other(estimator, needed, plot, action):
+    """The error for an estimator that lacks the fitted attributes a plot
+    needs: another kind of fitted estimator (a ``TypeError`` naming the
+    kind the plot takes, ``needed``), or one not fitted yet (a
+    ``NotFittedError`` saying ``action``)."""
+    fitted = [k for k in vars(estimator) if k.endswith("_") and not k.startswith("_")]
+    if fitted:
+        return TypeError(
+            f"{plot} needs a fitted {needed}; got a fitted {type(estimator).__name__}."
+        )
+    return NotFittedError(
+        f"This {type(estimator).__name__} is not fitted: {action} before plotting."
+    )

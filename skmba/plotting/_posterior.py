@@ -18,13 +18,13 @@ Examples
 import numbers
 
 import numpy as np
-from sklearn.exceptions import NotFittedError
 
 from skmba.plotting._common import (
     axes_grid,
     axis_label,
     check_true_value,
     labels,
+    not_fitted_or_other,
     recorded_names,
     short_number,
     unit_labels,
@@ -181,9 +181,8 @@ def _samples_and_prior(samples_or_calibrator, prior):
         samples = samples.reshape(len(samples), -1)
         names = recorded_names(obj, "parameter_names_", samples.shape[1], "parameters")
     elif callable(getattr(obj, "fit", None)):
-        raise NotFittedError(
-            f"This {type(obj).__name__} is not fitted (no theta_samples_): call "
-            "fit before plotting its posterior."
+        raise not_fitted_or_other(
+            obj, "ModularBayesCalibrator", "plot_posterior", "call fit"
         )
     else:
         try:

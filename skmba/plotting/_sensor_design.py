@@ -20,12 +20,12 @@ Examples
 import textwrap
 
 import numpy as np
-from sklearn.exceptions import NotFittedError
 
 from skmba._core.columns import response_index
 from skmba.plotting._common import (
     import_pyplot,
     labels,
+    not_fitted_or_other,
     recorded_names,
     single_axes,
 )
@@ -269,9 +269,8 @@ def _designer_arrays(designer, extra=()):
     attributes = ("subsets_", "scores_", "n_responses_", *extra)
     missing = [a for a in attributes if getattr(designer, a, None) is None]
     if missing and callable(getattr(designer, "fit", None)):
-        raise NotFittedError(
-            f"This {type(designer).__name__} is not fitted (no "
-            f"{', '.join(missing)}): call fit before plotting."
+        raise not_fitted_or_other(
+            designer, "PreposteriorDesigner", "this plot", "call fit"
         )
     if missing:
         raise TypeError(

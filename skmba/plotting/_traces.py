@@ -16,7 +16,6 @@ Examples
 """
 
 import numpy as np
-from sklearn.exceptions import NotFittedError
 
 from skmba.mcmc._diagnostics import split_rhat
 from skmba.plotting._common import (
@@ -24,6 +23,7 @@ from skmba.plotting._common import (
     axis_label,
     check_true_value,
     labels,
+    not_fitted_or_other,
     recorded_names,
     unit_labels,
 )
@@ -151,9 +151,11 @@ def _chains_of(chains_or_calibrator):
             "as an array of shape (n_chains, n_draws, r) instead."
         )
     elif callable(getattr(obj, "fit", None)):
-        raise NotFittedError(
-            f"This {type(obj).__name__} is not fitted: call fit with "
-            "sampler='mcmc' before plotting its chains."
+        raise not_fitted_or_other(
+            obj,
+            "ModularBayesCalibrator",
+            "plot_traces",
+            "call fit with sampler='mcmc'",
         )
     else:
         chains = obj

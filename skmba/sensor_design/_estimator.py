@@ -39,6 +39,7 @@ from skmba.sensor_design._inputs import (
     field_design,
     given_prior,
     synthetic_data_priors,
+    without_failed_runs,
 )
 from skmba.sensor_design._replicates import (
     MonteCarloContext,
@@ -443,6 +444,7 @@ class PreposteriorDesigner(BaseEstimator):
         # A table's parameter columns are found by the prior's names.
         X = parameters_last(X, prior_names(given_prior(self.prior, self.calibrator)))
         columns = column_names(X)
+        X, y = without_failed_runs(X, y)
         X, y = validate_data(self, X, y, multi_output=True, y_numeric=True)
         # C order whatever the input's (a DataFrame gives Fortran order): the
         # same bits as from an array.

@@ -21,9 +21,10 @@ from scipy import stats
 from sklearn.utils import check_array
 
 from skmba._core.validation import Boolean, Count, InstanceOf, NJobs, Options
+from skmba._core.warn import warn
 from skmba.calibration._estimator import ModularBayesCalibrator
 from skmba.calibration._settings import DISCREPANCY_UNCERTAINTIES
-from skmba.calibration._simulations import RUNS_PER_INPUT
+from skmba.calibration._simulations import RUNS_PER_INPUT, nonfinite_rows
 from skmba.priors._hyperprior import Hyperprior
 from skmba.priors._table_6_2 import (
     DEFAULT_DISCREPANCY_PRIOR,
@@ -245,3 +246,36 @@ def check_design_priors(discrepancy_prior, noise_prior, prior_units, d, q, y_sca
             lo, hi = out[key]
             out[key] = (lo / y_scale**power, hi / y_scale**power)
     return out
+
+
+def without_failed_runs(X, y):
+    """``X`` and ``y`` without the runs whose responses hold NaN or inf (failed
+    simulator runs), which are left out with a warning, as the calibrator
+    does; every run failed is an error. Data that are not numbers are left to
+    scikit-learn's checks."""
+    try:
+        Y = np.asarray(y, dtype=float)
+    except (TypeError, ValueError):
+        return X, y
+    if Y.ndim not in (1, 2) or len(Y) == 0:
+        return X, y
+    failed = nonfinite_rows(Y.reshape(len(Y), -1))
+    if not failed.size:
+        return X, y
+    if failed.size == len(Y):
+        raise ValueError(
+            "Input y contains NaN or infinity in every run: the responses of "
+            "every simulation failed. Pass the successful runs."
+        )
+    keep = np.setdiff1d(np.arange(len(Y)), failed)
+    warn(
+        f"{failed.size} of {len(Y)} simulation runs hold NaN or inf in y (failed "
+        f"runs, rows {failed[:10].tolist()}{' ...' if failed.size > 10 else ''}): "
+        "they are left out, as ModularBayesCalibrator does.",
+        UserWarning,
+    )
+
+    def rows(A):
+        return A.iloc[keep] if hasattr(A, "iloc") else np.asarray(A)[keep]
+
+    return rows(X), rows(y)

@@ -269,3 +269,58 @@ def test_a_large_field_data_set_warns_before_the_fit_starts():
                 theta_sim=DATA.theta_sim[:5],
                 y_sim=DATA.y_sim,
             )
+
+
+def test_score_leaves_out_a_response_without_readings_in_the_rows():
+    """A response with no reading among the held-out rows was scikit-learn's
+    'Found array with 0 sample(s)'."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        cal = ModularBayesCalibrator(
+            prior=DATA.prior,
+            discrepancy_uncertainty="plug-in",
+            n_restarts_optimizer=0,
+            n_samples=200,
+            random_state=0,
+        ).fit(
+            DATA.X_obs,
+            DATA.y_obs,
+            X_sim=DATA.X_sim,
+            theta_sim=DATA.theta_sim,
+            y_sim=DATA.y_sim,
+        )
+    y = DATA.y_obs.copy()
+    y[:, 1] = np.nan  # the energy gauge was out
+    from sklearn.metrics import r2_score
+
+    expected = r2_score(y[:, 0], cal.predict(DATA.X_obs)[:, 0])
+    assert cal.score(DATA.X_obs, y) == pytest.approx(expected, rel=1e-12)
+    y[1:, 0] = np.nan
+    with pytest.raises(ValueError, match="fewer than two readings of every response"):
+        cal.score(DATA.X_obs, y)
+
+
+def test_the_designer_leaves_out_failed_runs_as_the_calibrator_does():
+    from sklearn.base import clone
+
+    from skmba import PreposteriorDesigner
+
+    X = np.hstack([DATA.X_sim, DATA.theta_sim])
+    y = DATA.y_sim.copy()
+    y[[3, 11], 0] = np.nan  # two runs that did not converge
+    designer = PreposteriorDesigner(
+        DATA.prior,
+        calibrator=ModularBayesCalibrator(n_restarts_optimizer=0),
+        n_design=5,
+        n_mc=2,
+        random_state=0,
+    )
+    with pytest.warns(UserWarning, match=r"2 of 40 simulation runs .* rows \[3, 11\]"):
+        designer.fit(X, y)
+    keep = np.setdiff1d(np.arange(40), [3, 11])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        same = clone(designer).fit(X[keep], y[keep])
+    np.testing.assert_array_equal(designer.scores_, same.scores_)
+    with pytest.raises(ValueError, match="every run"):
+        designer.fit(X, np.full_like(y, np.nan))

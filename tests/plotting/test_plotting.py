@@ -19,7 +19,7 @@ from matplotlib.figure import Figure
 from scipy import stats
 from sklearn.exceptions import NotFittedError
 
-from skmba import ModularBayesCalibrator, MultiResponseGP
+from skmba import ModularBayesCalibrator, MultiResponseGP, PreposteriorDesigner
 from skmba.datasets import make_cantilever
 from skmba.plotting import (
     plot_calibrated_components,
@@ -1019,3 +1019,38 @@ def test_designer_subsets_by_response_name(designer):
         plot_criterion_vs_bias(scores, bias[:3], subsets=[("tip",), (0, 1), (6,)])
     with pytest.raises(TypeError, match="tuples of response indices or names"):
         plot_convergence(named, subsets=["tip"])
+
+
+def test_a_plot_given_another_kind_of_fitted_estimator_names_the_kind(calibrator):
+    """A fitted designer in a calibrator's plot (and the reverse) was called
+    'not fitted'."""
+    sims = make_cantilever(20, random_state=0)
+    designer = PreposteriorDesigner(
+        sims.prior,
+        calibrator=ModularBayesCalibrator(n_restarts_optimizer=0),
+        n_design=5,
+        n_mc=2,
+        random_state=0,
+    ).fit(np.hstack([sims.X_sim, sims.theta_sim]), sims.y_sim)
+    wants_calibrator = "needs a fitted ModularBayesCalibrator; got a fitted Prepos"
+    with pytest.raises(TypeError, match=wants_calibrator):
+        plot_posterior(designer)
+    with pytest.raises(TypeError, match=wants_calibrator):
+        plot_traces(designer)
+    wants_designer = "needs a fitted PreposteriorDesigner; got a fitted ModularBay"
+    with pytest.raises(TypeError, match=wants_designer):
+        plot_convergence(calibrator)
+    with pytest.raises(NotFittedError, match="not fitted: call fit"):
+        plot_criterion_by_size(PreposteriorDesigner())
+
+
+def test_gp_prediction_labels_the_responses_of_a_table(data):
+    import pandas as pd
+
+    y = pd.DataFrame(data.y_obs, columns=["tip", "energy"])
+    gp = MultiResponseGP(noise=True).fit(data.X_obs, y)
+    assert gp.response_names_ == ["tip", "energy"]
+    fig = plot_gp_prediction(gp, data.X_obs)
+    titles = " ".join(ax.get_ylabel() + ax.get_title() for ax in fig.axes)
+    assert "tip" in titles and "energy" in titles
+    assert MultiResponseGP().fit(data.X_obs, data.y_obs).response_names_ is None
