@@ -102,3 +102,46 @@ def test_same_seed_same_draw():
 def test_bad_spec(spec, error, match):
     with pytest.raises(error, match=match):
         Hyperprior.from_spec(spec)
+
+
+def test_roughness_none_means_the_kernels_own_bounds():
+    """discrepancy_prior={'roughness': None}, the remedy an earlier error
+    message recommended, failed with 'not enough values to unpack'."""
+    import warnings
+
+    from skmba import ModularBayesCalibrator, PreposteriorDesigner
+    from skmba.datasets import make_cantilever
+
+    prior = Hyperprior.from_spec({"roughness": None})
+    assert prior.roughness is None
+    with pytest.raises(ValueError, match="needs the kernel's roughness_bounds"):
+        prior.rvs(d=1, q=2, random_state=0)
+    draw = prior.rvs(d=2, q=1, random_state=0, roughness_bounds=(1e-3, [1e-2, 1e3]))
+    assert 1e-3 <= draw["roughness"][0] <= 1e-2 and 1e-3 <= draw["roughness"][1] <= 1e3
+    data = make_cantilever(30, 10, random_state=0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        cal = ModularBayesCalibrator(
+            prior=data.prior,
+            discrepancy_prior={"roughness": None},
+            n_restarts_optimizer=0,
+            random_state=0,
+        ).fit(
+            data.X_obs,
+            data.y_obs,
+            X_sim=data.X_sim,
+            theta_sim=data.theta_sim,
+            y_sim=data.y_sim,
+        )
+        designer = PreposteriorDesigner(
+            data.prior,
+            calibrator=ModularBayesCalibrator(n_restarts_optimizer=0),
+            discrepancy_uncertainty="propagate",
+            discrepancy_prior={"roughness": None},
+            n_design=5,
+            n_mc=2,
+            random_state=0,
+        ).fit(np.hstack([data.X_sim, data.theta_sim]), data.y_sim)
+    assert np.all(np.isfinite(cal.theta_mean_)) and np.all(
+        np.isfinite(designer.scores_)
+    )
