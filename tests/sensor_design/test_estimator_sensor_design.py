@@ -529,3 +529,44 @@ def test_a_named_X_design_is_matched_to_the_design_columns_by_name():
     np.testing.assert_array_equal(scores(table), scores(X_design))
     with pytest.raises(ValueError, match="do not match the design-variable columns"):
         scores(table.rename(columns={names[0]: "load"}))
+
+
+@pytest.mark.parametrize(
+    ("extra", "search", "treatment"),
+    [
+        ("duplicate", "genetic", "plug-in"),
+        ("scaled", "greedy", "propagate"),
+        ("sum", "exhaustive", "propagate"),
+    ],
+)
+def test_dependent_responses_give_scores_not_linear_algebra_errors(
+    extra, search, treatment
+):
+    """A response that repeats, scales or adds others: every search and
+    treatment gives finite scores (a user's trial of nearly dependent
+    responses met scipy's 'allow_singular is False' error; the proposal
+    covariances are now floored, tests/core/test_linalg.py)."""
+    from skmba import ModularBayesCalibrator, PreposteriorDesigner
+    from skmba.datasets import make_cantilever
+
+    sims = make_cantilever(
+        30, responses=("tip_displacement", "mid_displacement", "energy"), random_state=0
+    )
+    Y = sims.y_sim
+    added = {"duplicate": Y[:, 0], "scaled": 2.0 * Y[:, 0], "sum": Y[:, 0] + Y[:, 1]}
+    designer = PreposteriorDesigner(
+        sims.prior,
+        calibrator=ModularBayesCalibrator(n_restarts_optimizer=0),
+        discrepancy_uncertainty=treatment,
+        n_design=8,
+        n_mc=3,
+        search=search,
+        random_state=0,
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        designer.fit(
+            np.hstack([sims.X_sim, sims.theta_sim]),
+            np.column_stack([Y, added[extra]]),
+        )
+    assert np.all(np.isfinite(designer.scores_)) and np.all(designer.scores_ > 0)
