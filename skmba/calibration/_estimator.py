@@ -41,6 +41,7 @@ from skmba.calibration._field_data import (
     measured_field_data,
     measured_r2,
     named_simulations,
+    pandas_index,
     prior_names,
     row_labels,
     warn_few_distinct_inputs,
@@ -497,11 +498,12 @@ class ModularBayesCalibrator(
         of those rows, and the simulation tables matched to them by name."""
         check_field_data(X, y, self.discrepancy_regression)
         check_same_index(X, y)
-        labels = row_labels(y)
+        index = pandas_index(y)
         features, responses = column_names(X), column_names(y)
         X = validate_data(self, X)
         # NaN in y is a reading not taken; scikit-learn's y check rejects it.
         y = checked_field_y(y)
+        labels = row_labels(index, len(y))
         check_consistent_length(X, y)
         # Tables of simulations are matched to the field data and the prior
         # by their column labels (arrays by position).

@@ -496,7 +496,7 @@ def check_same_index(X, y, names=("X", "y")):
     ...
     ValueError: X and y have the same row labels in another order: ...
     """
-    first, second = getattr(X, "index", None), getattr(y, "index", None)
+    first, second = pandas_index(X), pandas_index(y)
     if first is None or second is None or first.equals(second):
         return
     a, b = names
@@ -513,10 +513,16 @@ def check_same_index(X, y, names=("X", "y")):
     )
 
 
-def row_labels(y):
-    """The labels of the rows of ``y``: its pandas index, else 0, 1, ..."""
-    index = getattr(y, "index", None)
-    return np.asarray(index) if index is not None else np.arange(len(y))
+def pandas_index(A):
+    """The row index of a pandas object ``A``, else None (a list's ``index``
+    method is no index)."""
+    index = getattr(A, "index", None)
+    return index if callable(getattr(index, "equals", None)) else None
+
+
+def row_labels(index, n):
+    """The labels of ``n`` rows: a pandas ``index``, else 0, 1, ..."""
+    return np.asarray(index) if index is not None else np.arange(n)
 
 
 def prior_names(prior):
