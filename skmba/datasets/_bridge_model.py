@@ -337,8 +337,9 @@ class BridgeModel(_Deck):
     inertia, no axial dofs) of ``n = n_elements`` equal elements of length
     ``h = L / n``. Node ``i = 0 .. n`` sits at ``x_i = i h``; element ``e =
     0 .. n - 1`` joins nodes ``e`` and ``e + 1``. Each node has two dofs:
-    the vertical deflection ``w_i`` [m] (global dof ``2 i``) and the
-    rotation ``phi_i = dw/dx`` [rad] (global dof ``2 i + 1``). The element
+    the vertical deflection ``w_i`` [m, positive upwards] (global dof
+    ``2 i``) and the rotation ``phi_i = dw/dx`` [rad] (global dof ``2 i +
+    1``). The element
     stiffness is :func:`beam_stiffness` with ``EI = E(T) I`` and the element
     mass the consistent mass of :func:`beam_mass` (``m h / 420`` times the
     matrix of the cubic Hermite shape functions), assembled by adding the
@@ -432,9 +433,10 @@ class BridgeReality(_Deck):
         Index of the damaged element (0 at ``x = 0``), None for no damage.
     damage_size : float, default=0.0
         Fraction of the element's stiffness lost, in [0, 1).
-    n_modes, n_elements, span, second_moment, mass_per_length, \
-reference_temperature, temperature_coefficient
-        As in :class:`BridgeModel`.
+    n_modes, n_elements, span, second_moment, mass_per_length
+        The deck, as in :class:`BridgeModel`.
+    reference_temperature, temperature_coefficient
+        The law of ``E(T)``, as in :class:`BridgeModel`.
 
     Notes
     -----

@@ -352,8 +352,8 @@ def make_bridge_monitoring(
         None is element ``n_elements // 4``, near a quarter of the span.
     damage_start : int, str, datetime-like or None, default=None
         First damaged reading: an hour index (0 is ``start``) or a time
-        inside the record. None is hour ``3 * n_hours // 4`` (1 October for
-        the default year).
+        inside the record. None is hour ``3 * n_hours // 4`` (1 October,
+        18:00, for the default year).
     noise_sd : None, float or array-like of shape (n_modes,), default=None
         Standard deviation of the identification noise of each frequency
         [Hz]. None is 0.2 % of each mode's frequency (model at the true
