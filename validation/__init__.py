@@ -18,9 +18,13 @@ Map:
   earlier SBC runs, ``sbc0_a1``, ``sbc0_a2``);
 - ``sbc_cases.py``: ``sbc_a1``, ``sbc_a2``, everything drawn from the
   default priors;
+- ``joint_posterior.py``: the joint posterior of theta and the module-2
+  hyperparameters on a fitted calibrator's pieces (the gold standard of
+  ``studies/joint_reference``);
 - ``studies/``: one-question studies run as ``python -m
   validation.studies.<name>`` (``missing_data``, ``designer_vs_calibrator``,
-  ``reference_sd``, ``spike_probe``, ``new_observation_noise``);
+  ``reference_sd``, ``spike_probe``, ``new_observation_noise``,
+  ``joint_reference``);
 - ``results/``: stored tables, with the command that produced each
   (``results/README.md``).
 

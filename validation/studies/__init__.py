@@ -11,7 +11,9 @@ Each module is a script, ``python -m validation.studies.<name> --help``:
   discrepancy-free fit on the same data;
 - ``spike_probe``: what a prior mass on "no discrepancy" would do;
 - ``new_observation_noise``: why new observations are covered a little
-  under 95 % (the noise, the emulator, the ideal reference).
+  under 95 % (the noise, the emulator, the ideal reference);
+- ``joint_reference``: the default posterior of theta against the joint
+  posterior of theta and the module-2 hyperparameters (long MCMC).
 
 They take their cases from :func:`validation.suite.registry` (or
 :mod:`validation.cases`) and their statistics from
