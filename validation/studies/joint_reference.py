@@ -46,6 +46,7 @@ from skmba.mcmc import ess_bulk, split_rhat
 from validation.joint_posterior import (
     BURN_IN,
     INDEPENDENCE,
+    MAX_SAMPLES,
     N_CHAINS,
     N_SAMPLES,
     RHAT_FLAG,
@@ -114,6 +115,7 @@ def run_case(
     target_ess=TARGET_ESS,
     n_samples=N_SAMPLES,
     burn_in=BURN_IN,
+    max_samples=MAX_SAMPLES,
     independence=INDEPENDENCE,
     n_conditionals=N_CONDITIONALS,
 ):
@@ -127,7 +129,7 @@ def run_case(
     (``fit_seconds``, ``seconds`` of the reference, ``refit_seconds``).
     """
     case = registry()[name].build(seed)
-    record = {"case": name, "seed": int(seed)}
+    record = {"case": name, "seed": int(seed), "target_ess": target_ess}
     with threadpoolctl.threadpool_limits(1), warnings.catch_warnings():
         warnings.simplefilter("ignore")
         started = time.perf_counter()
@@ -145,6 +147,7 @@ def run_case(
             n_samples=n_samples,
             burn_in=burn_in,
             target_ess=target_ess,
+            max_samples=max_samples,
             watch=np.arange(target.r),
             independence=independence,
             random_state=[int(seed), 30, 1],
@@ -194,6 +197,7 @@ def scores(record):
         & (ratio <= RATIO_BAND[1])
         & (np.abs(d["mean"] - ref["mean"]) <= MEAN_BAND * ref["sd"]),
         "rhat_flag": (record["rhat"] > RHAT_FLAG) | (record["rhat_all"] > RHAT_FLAG),
+        "ess_flag": record["ess"] < (record.get("target_ess") or 0),
     }
 
 
@@ -241,8 +245,9 @@ def _row_text(row):
     if row.get("error"):
         return f"{row['case']:<7}{row['seed']:>4} failed: {row['error'][:100]}"
     flags = ("  R-hat>1.01" if row["rhat_flag"] else "") + (
-        "  in target" if row["in_target"] else ""
+        "  ESS short" if row["ess_flag"] else ""
     )
+    flags += "  in target" if row["in_target"] else ""
     ratio = f"{row['sd_ratio']:.3f}±{row['ratio_mcse']:.3f}"
     refits = f"{row['refit_ratio_min']:.2f}-{row['refit_ratio_max']:.2f}"
     rhat = max(row["rhat"], row["rhat_all"])
@@ -285,7 +290,7 @@ _FIELDS = [
     "reference_sd_mcse", "reference_chain_sd",
     "sd_ratio", "ratio_mcse", "mean_diff", "width_ratio",
     "refit_ratio_min", "refit_ratio_max", "refit_diff_max", "n_refits",
-    "in_target", "rhat", "rhat_all", "rhat_flag", "ess", "acceptance",
+    "in_target", "rhat", "rhat_all", "rhat_flag", "ess", "ess_flag", "acceptance",
     "n_chains", "n_samples", "burn_in", "seconds", "fit_seconds",
     "refit_seconds", "error",
 ]  # fmt: skip
@@ -344,6 +349,9 @@ def _parser():
     )
     parser.add_argument("--n-samples", type=int, default=N_SAMPLES)
     parser.add_argument("--burn-in", type=int, default=BURN_IN)
+    parser.add_argument(
+        "--max-samples", type=int, default=MAX_SAMPLES, help="per chain, at most"
+    )
     parser.add_argument("--out", default=None, help="directory for the results")
     return parser
 
@@ -367,6 +375,7 @@ def main(argv=None):
         "n_conditionals": args.n_conditionals,
         "n_samples": args.n_samples,
         "burn_in": args.burn_in,
+        "max_samples": args.max_samples,
     }
     started = time.perf_counter()
     records = Parallel(n_jobs=args.n_jobs, batch_size=1)(
