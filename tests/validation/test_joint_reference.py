@@ -199,4 +199,7 @@ def test_study_on_a1_converges(record_property):
     record_property("ratio_mcse", row["ratio_mcse"])
     record_property("mean_diff", row["mean_diff"])
     print(joint_reference.format_table([record]))
+    # Convergence only: these short chains gave a reference sd of 1397 MPa
+    # (sd ratio 1.15 +- 0.05) where the stored run's long ones give 1606
+    # +- 40 (ratio 1.00), so no band on the ratio is justified here.
     assert np.isfinite(row["sd_ratio"]) and row["ratio_mcse"] > 0
