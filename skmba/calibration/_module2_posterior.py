@@ -109,6 +109,11 @@ class HyperposteriorDraws:
         The draws ``phi_k`` in the unbounded coordinates ``v`` of
         :class:`HyperparameterCoordinates` (those of ``laplace_cov``);
         None for the plug-in.
+    mode_coordinates : ndarray of shape (m,) or None
+        The mode in those coordinates; None for the plug-in.
+    coordinates : object or None
+        Those coordinates and module 2's restricted likelihood
+        (:class:`HyperparameterCoordinates`); None for the plug-in.
     """
 
     mode: DiscrepancyFit
@@ -118,6 +123,8 @@ class HyperposteriorDraws:
     noise_mean: np.ndarray | None
     noise_ess: float | None
     draw_coordinates: np.ndarray | None = None
+    mode_coordinates: np.ndarray | None = None
+    coordinates: object = None
 
     @property
     def regression(self):
@@ -238,6 +245,17 @@ class _Coordinates:
         return -value, -grad
 
 
+def clamped_inverse(H):
+    """The inverse of a Hessian ``H`` of ``-log posterior`` as a covariance:
+    flat or non-convex directions (eigenvalues below ``1 / 4``) get the
+    wide, finite variance 4 (the unbounded coordinates' scale)."""
+    values, vectors = np.linalg.eigh(0.5 * (H + H.T))
+    inv = np.where(
+        values > 1.0 / _FLAT_VARIANCE, 1.0 / np.maximum(values, 1e-300), _FLAT_VARIANCE
+    )
+    return (vectors * inv) @ vectors.T
+
+
 def _laplace_cov(coords, v):
     """Inverse of the finite-difference Hessian of ``-log posterior`` at ``v``."""
     m = len(v)
@@ -248,21 +266,16 @@ def _laplace_cov(coords, v):
         H[:, j] = (coords.objective(v + e)[1] - coords.objective(v - e)[1]) / (
             2 * _HESSIAN_STEP
         )
-    values, vectors = np.linalg.eigh(0.5 * (H + H.T))
-    # Flat or non-convex directions get a wide, finite variance.
-    inv = np.where(
-        values > 1.0 / _FLAT_VARIANCE, 1.0 / np.maximum(values, 1e-300), _FLAT_VARIANCE
-    )
-    return (vectors * inv) @ vectors.T
+    return clamped_inverse(H)
 
 
-def _proposal_draws(coords, mode, cov, n_draws, seed):
+def proposal_draws(coords, mode, cov, n_draws, seed, prior_share=PRIOR_SHARE):
     """Draws of the defensive proposal, their log prior and log proposal
     densities (the log importance weights for the prior are the difference).
 
     The proposal ``q = (1 - a) t + a p`` mixes the Student-t around the mode
     (scrambled Halton) with the prior ``p`` itself (share ``a`` =
-    :data:`PRIOR_SHARE`, its draws stratified between both): the weights
+    ``prior_share``, its draws stratified between both): the weights
     ``p / q`` are then at most ``1 / a``, and the prior's draws reach
     hyperparameters far from the mode, where the mode of an approximate
     module 2 may be wrong (Hesterberg 1995, Technometrics 37).
@@ -270,7 +283,7 @@ def _proposal_draws(coords, mode, cov, n_draws, seed):
     m = len(mode)
     cov = proposal_covariance(cov)
     t_seed, p_seed = seed.spawn(2)
-    n_prior = round(PRIOR_SHARE * n_draws)
+    n_prior = round(prior_share * n_draws)
     halton = qmc.Halton(m + 1, scramble=True, seed=np.random.default_rng(t_seed))
     u = np.clip(halton.random(n_draws - n_prior), 1e-12, 1 - 1e-12)
     chi2 = stats.chi2.ppf(u[:, m], PROPOSAL_DF)
@@ -282,7 +295,7 @@ def _proposal_draws(coords, mode, cov, n_draws, seed):
     )
     log_t = np.atleast_1d(stats.multivariate_t(mode, cov, df=PROPOSAL_DF).logpdf(draws))
     log_p = np.array([coords.log_prior_normalised(v) for v in draws])
-    log_q = np.logaddexp(np.log1p(-PRIOR_SHARE) + log_t, np.log(PRIOR_SHARE) + log_p)
+    log_q = np.logaddexp(np.log1p(-prior_share) + log_t, np.log(prior_share) + log_p)
     return draws, log_p, log_q
 
 
@@ -290,10 +303,10 @@ def _noise_posterior_mean(coords, mode, cov, seed):
     """Posterior mean of the noise variances and its effective sample size.
 
     Self-normalised importance sampling with :data:`N_NOISE_DRAWS` draws of
-    the defensive proposal of :func:`_proposal_draws`, weighted by the
+    the defensive proposal of :func:`proposal_draws`, weighted by the
     module-2 posterior (restricted likelihood, prior and Jacobian).
     """
-    draws, _, log_q = _proposal_draws(coords, mode, cov, N_NOISE_DRAWS, seed)
+    draws, _, log_q = proposal_draws(coords, mode, cov, N_NOISE_DRAWS, seed)
     with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
         log_post = np.array(
             [coords.log_posterior(v, eval_gradient=False) for v in draws]
@@ -495,7 +508,7 @@ def fit_hyperposterior(
     fit = coords.fit
     mode = fit.estimate(coords.to_p(best.x)[0])
     cov = _laplace_cov(coords, best.x)
-    draws, log_p, log_q = _proposal_draws(coords, best.x, cov, n_draws, draw_seed)
+    draws, log_p, log_q = proposal_draws(coords, best.x, cov, n_draws, draw_seed)
     log_w = log_p - log_q
     log_w -= special.logsumexp(log_w)
     components = [coords.component(v) for v in draws]
@@ -504,7 +517,16 @@ def fit_hyperposterior(
         if noise_mean
         else (None, None)
     )
-    return HyperposteriorDraws(mode, components, log_w, cov, *noise, draws)
+    return HyperposteriorDraws(
+        mode,
+        components,
+        log_w,
+        cov,
+        *noise,
+        draws,
+        best.x,
+        HyperparameterCoordinates(coords),
+    )
 
 
 def propagated_module2(integrated, *, first_pass, posterior, integrate, second_pass):
