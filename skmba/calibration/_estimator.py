@@ -90,15 +90,11 @@ class ModularBayesCalibrator(
     Parameters
     ----------
     simulator : callable, default=None
-        ``simulator(X, theta) -> Y``, called on blocks of runs: ``X`` (n, d),
-        ``theta`` (n, r), ``Y`` (n, q), first on all of them at once. ``fit``
-        runs it on a Latin hypercube over the range of ``X`` times the
-        prior's 0.999 central interval. A run that raises or returns NaN or
-        inf is left out and listed in ``simulation_failures_`` (a block that
-        raises is halved until the failing runs are found); ``fit`` warns
-        with their count and fails only when too few runs remain.
-        Not needed after ``fit`` (``set_params(simulator=None)`` before
-        pickling one that cannot be pickled; see the User Guide).
+        ``simulator(X, theta) -> Y`` on blocks of runs (``X`` (n, d),
+        ``theta`` (n, r), ``Y`` (n, q)), run on a Latin hypercube over the
+        range of ``X`` times the prior's 0.999 interval. Failed runs (an
+        exception, NaN or inf) are left out and listed in
+        ``simulation_failures_``. Not needed after ``fit`` (User Guide).
     prior : list or dict of frozen scipy.stats distributions, frozen \
             multivariate_normal or object with ``logpdf``/``rvs``, default=None
         Prior of the ``r`` calibration parameters. A dict ``{name:
@@ -132,10 +128,8 @@ class ModularBayesCalibrator(
     burn_in : int, default=1000
         Draws per chain discarded; the proposal adapts during burn-in only.
     n_jobs : int, default=None
-        Parallel chains, module-2 node blocks and module-4 predictions,
-        through joblib (``joblib.parallel_config(backend="dask")`` works);
-        ``-1`` all cores. BLAS is held to one thread during ``fit`` and the
-        predictions: the parallelism is joblib's.
+        Parallel chains, module-2 node blocks and module-4 predictions
+        through joblib (also on Dask); ``-1`` all cores.
     random_state : int, RandomState, Generator, SeedSequence or None
         The same seed gives bit-identical results for any ``n_jobs`` and
         joblib backend.
@@ -154,8 +148,9 @@ class ModularBayesCalibrator(
         Module-2 treatment. "propagate": the discrepancy and noise
         hyperparameters get the prior of ``discrepancy_prior``, module 2
         finds their restricted-likelihood posterior (mode and Laplace
-        approximation) and module 3 integrates them out over 16 of its
-        draws, so that theta's interval carries their uncertainty. "plug-in":
+        approximation) and module 3 integrates them out, so that theta's
+        interval carries their uncertainty: over 16 draws of module 2's
+        posterior, or, for one parameter, to ``discrepancy_tol``. "plug-in":
         the thesis' MBA, their estimate within the ranges of
         ``discrepancy_prior`` plugged into modules 3 and 4. The User Guide
         ("How honest are the intervals?") compares the two.
@@ -170,16 +165,19 @@ class ModularBayesCalibrator(
              "roughness": (0.1, 9.0),   # log-uniform, thesis Table 6.2
              "noise": (1e-6, 1.0)}      # log-uniform noise variance
 
-        With "plug-in", ranges of the hyperparameters (a uniform prior whose
-        maximum a posteriori module 2 finds)::
-
-            {"roughness": (0.1, 9.0),   # per design variable
-             "variance": (1e-2, 20.0)}  # diagonal of Sigma_d, per response
-
-        (thesis Table 6.2); each range is ``(low, high)`` of scalars or of
-        arrays, and ``None`` removes it (``"variance": None``: the plain
-        maximum likelihood). The lower end of ``"variance"`` is held as each
-        response's own part of the discrepancy.
+        With "plug-in", ranges ``(low, high)`` (scalars or arrays; None
+        removes one) of a uniform prior whose maximum module 2 finds:
+        ``{"roughness": (0.1, 9.0), "variance": (1e-2, 20.0)}`` (thesis
+        Table 6.2; ``"variance"`` is the diagonal of Sigma_d, its lower end
+        each response's own part of the discrepancy).
+    discrepancy_tol : float, default=None
+        With "propagate" and one parameter: integrate the hyperparameters
+        out until the Monte Carlo errors of theta's posterior mean and sd
+        are below this many posterior sds (the 95 % ends: twice that), in
+        blocks of 128 draws, at most 4096; reported by ``summary()``. 0.05
+        makes the interval reproducible whatever ``random_state``, at a
+        higher cost (User Guide, "The same data, the same interval"). None:
+        16 draws, whose interval moves with ``random_state``.
     emulator_alpha : float, default=1e-8
         Nugget of the emulator's correlation matrix, at the simulations and
         at the field inputs of the module-3 likelihood alike (the model term
@@ -229,23 +227,21 @@ class ModularBayesCalibrator(
         and ``ess_`` are the rank-normalised split R-hat and the bulk
         effective sample size, equal to ArviZ's ``rhat`` and ``ess(method=
         "bulk")`` (see the User Guide).
+    theta_mcse_ : ndarray of shape (4, r)
+        Monte Carlo errors of the posterior mean, sd, 2.5 % and 97.5 % ends
+        from the integral over the hyperparameters (``discrepancy_tol``);
+        NaN where not estimated.
+    discrepancy_draws_ : int
+        Draws of the hyperparameters module 3 integrates over.
     identifiability_ : ndarray of shape (r,)
-        Per parameter, the ratio of its linearised posterior sd without a
-        discrepancy to that with a discrepancy of plausible size (each
-        response's at the 95 % point of the prior of its sd), near
-        the posterior mean: near 1, the data identify it whatever the
-        discrepancy; below 1/3 ``fit`` warns
-        (:class:`~skmba.exceptions.NonIdentifiabilityWarning`): a
-        discrepancy can mimic its effect and its interval reflects the
-        discrepancy prior more than the data.
+        Per parameter, its linearised posterior sd without a discrepancy over
+        that with a discrepancy of plausible size (each response's at the
+        95 % point of its sd's prior), near the posterior mean; below 1/3
+        ``fit`` warns (:class:`~skmba.exceptions.NonIdentifiabilityWarning`).
     theta_robust_interval_ : ndarray of shape (r, 2)
-        Per parameter, a 95 % interval that holds across plausible model
-        errors: the posterior mean plus and minus 1.96 times the linearised
-        posterior sd with the discrepancy of ``identifiability_``'s probe,
-        clipped to the prior's support. Close to the posterior's interval
-        where the data identify the parameter; most of the prior where a
-        discrepancy can mimic it (see "How honest are the intervals?" in
-        the User Guide for its coverage).
+        Per parameter, the posterior mean plus and minus 1.96 linearised
+        sds with ``identifiability_``'s discrepancy, clipped to the prior's
+        support (User Guide, "How honest are the intervals?").
     parameter_names_ : list of str
         The names of the calibration parameters: the keys of a dict prior
         (or, without a prior, the columns of a ``theta_sim`` DataFrame),
@@ -338,6 +334,7 @@ class ModularBayesCalibrator(
         discrepancy_optimizer="fmin_l_bfgs_b",
         discrepancy_uncertainty="propagate",
         discrepancy_prior=None,
+        discrepancy_tol=None,
         emulator_alpha=1e-8,
         verbose=0,
     ):
@@ -362,6 +359,7 @@ class ModularBayesCalibrator(
         self.discrepancy_optimizer = discrepancy_optimizer
         self.discrepancy_uncertainty = discrepancy_uncertainty
         self.discrepancy_prior = discrepancy_prior
+        self.discrepancy_tol = discrepancy_tol
         self.emulator_alpha = emulator_alpha
         self.verbose = verbose
 

@@ -39,6 +39,7 @@ from skmba._core.progress import duration_text
 from skmba._core.regression import n_regression_terms
 from skmba._core.warn import warn
 from skmba.calibration._module1_emulator import Standardizer, fit_emulator
+from skmba.calibration._module2_converged import converge
 from skmba.calibration._module2_plug_in import fit_discrepancy
 from skmba.calibration._module2_posterior import (
     N_HYPER_DRAWS,
@@ -59,7 +60,7 @@ from skmba.calibration._module3_posterior import (
     posterior_by_mcmc,
     posterior_by_quadrature,
 )
-from skmba.calibration._module4_prediction import prediction_rule
+from skmba.calibration._module4_prediction import PredictionRule, prediction_rule
 from skmba.calibration._simulations import check_design_size, collect_simulations
 from skmba.kernels import check_correlation
 from skmba.priors._hyperprior import Hyperprior
@@ -102,11 +103,15 @@ class ModuleInputs:
 
 @dataclass(frozen=True)
 class Module3Result:
-    """Module 3's log posterior and posterior of theta, and module 4's rule."""
+    """Module 3's log posterior and posterior of theta, and module 4's rule;
+    ``error``, the Monte Carlo error of the integral over module 2's
+    hyperparameters (a :class:`~skmba.calibration._module2_converged.
+    MonteCarloError`), where it is estimated."""
 
     log_post: LogPosterior
     posterior: object
     rule: object
+    error: object = None
 
 
 @dataclass(frozen=True)
@@ -296,14 +301,50 @@ def _propagated(inputs, integrated, hyperprior, seeds):
             n_jobs=inputs.settings.n_jobs,
         )
 
+    converged = (
+        _sampler(inputs) == "quadrature" and inputs.settings.discrepancy_tol is not None
+    )
     draws, first = propagated_module2(
         integrated,
         first_pass=lambda i: _draws(inputs, i, hyperprior, seeds[2], "1st pass", False),
         posterior=first_posterior,
         integrate=over_posterior,
-        second_pass=lambda i: _draws(inputs, i, hyperprior, seeds[4], "2nd pass"),
+        second_pass=lambda i: _draws(
+            inputs, i, hyperprior, seeds[4], "2nd pass", not converged
+        ),
     )
+    if converged:
+        return _converged(inputs, draws, first.posterior, seeds[5])
     return draws, fit_module3(inputs, draws, seeds[5], earlier=first.posterior)
+
+
+def _converged(inputs, module2, first, seed):
+    """One parameter: the integral over the hyperparameters to the
+    calibrator's tolerance (:func:`~skmba.calibration._module2_converged.
+    converge`), module 3's posterior on its grid and module 4's pairs."""
+    started = time.perf_counter()
+    settings = inputs.settings
+    base = GlobalModel(inputs.emulator, inputs.Xs, inputs.Ys, module2.mode)
+    result = converge(
+        module2,
+        base,
+        inputs.scaler,
+        inputs.prior,
+        first,
+        tol=settings.discrepancy_tol,
+        n_samples=settings.sampler.n_samples,
+        random_state=seed,
+        say=inputs.progress.info,
+    )
+    (n, _), q = inputs.Xs.shape, inputs.Ys.shape[1]
+    check_global_memory(
+        inputs.emulator.N, n, q, base.P, 1, len(result.draws.components)
+    )
+    model = ModelMixture(base, result.draws)
+    log_post = LogPosterior(inputs.prior, model, inputs.scaler, inputs.sims.theta)
+    rule = PredictionRule(result.rule_thetas, result.rule_weights, result.rule_draws)
+    inputs.progress.info(result.posterior.summary(time.perf_counter() - started))
+    return result.draws, Module3Result(log_post, result.posterior, rule, result.error)
 
 
 def _draws(inputs, integrated, prior, seed, label, predicts=True):
@@ -371,11 +412,16 @@ def fit_module3(inputs, module2, seed, *, first_pass=False, earlier=None):
     return Module3Result(log_post, posterior, rule)
 
 
+def _sampler(inputs):
+    """The sampler of the settings: quadrature (one parameter) or MCMC."""
+    s = inputs.settings.sampler
+    return one_parameter_rule("sampler", s.sampler, inputs.prior.dim, several="mcmc")
+
+
 def _posterior(inputs, log_post, seed, first_pass, earlier):
     """The posterior of theta by quadrature (one parameter) or MCMC."""
     s = inputs.settings.sampler
-    sampler = one_parameter_rule("sampler", s.sampler, inputs.prior.dim, several="mcmc")
-    if sampler == "quadrature":
+    if _sampler(inputs) == "quadrature":
         return posterior_by_quadrature(
             log_post, s.n_samples, random_state=seed, say=inputs.progress.info
         )
@@ -396,6 +442,14 @@ def _posterior(inputs, log_post, seed, first_pass, earlier):
             else None
         ),
     )
+
+
+def _mcse(error, r):
+    """``theta_mcse_``: rows mean, sd, 2.5 % and 97.5 % ends (r columns);
+    NaN where the integral over the hyperparameters has no estimate."""
+    if error is None:
+        return np.full((4, r), np.nan)
+    return np.array([[error.mean], [error.sd], [error.lower], [error.upper]])
 
 
 def fitted_attributes(result, prior):
@@ -427,6 +481,8 @@ def fitted_attributes(result, prior):
             posterior.mean, result.identifiability.probe_sd * scaler.theta_scale, prior
         ),
         "global_model_": result.module3.log_post.model,
+        "theta_mcse_": _mcse(result.module3.error, len(posterior.mean)),
+        "discrepancy_draws_": len(result.module2.components),
     }
     if posterior.method == "quadrature":
         out["theta_nodes_"], out["theta_weights_"] = posterior.nodes, posterior.weights

@@ -71,6 +71,13 @@ PARAMETER_TABLE = {
     "discrepancy_optimizer": [Options(DISCREPANCY_OPTIMIZERS)],
     "discrepancy_uncertainty": [Options(DISCREPANCY_UNCERTAINTIES)],
     "discrepancy_prior": "no_validation",  # module2_prior, in fit
+    "discrepancy_tol": [
+        Real(
+            minimum=1e-4,
+            hint="posterior sds, e.g. 0.05; smaller costs more draws",
+            allow_none=True,
+        )
+    ],
     "emulator_alpha": [Real(minimum=0, hint="the emulator's nugget, e.g. 1e-8")],
     "verbose": [Count(minimum=0)],
 }
@@ -142,6 +149,10 @@ class CalibrationSettings:
     discrepancy_prior : dict or None
         As given; :func:`~skmba.calibration._pipeline.module2_prior` checks
         it against the data.
+    discrepancy_tol : float or None
+        Monte Carlo tolerance of the integral over module 2's
+        hyperparameters, in posterior sds of theta; None: module 2's 16
+        draws.
     n_jobs : int or None
     emulator, integration, discrepancy, sampler
         The settings of each module.
@@ -152,6 +163,7 @@ class CalibrationSettings:
     verbose: int
     discrepancy_uncertainty: str
     discrepancy_prior: dict | None
+    discrepancy_tol: float | None
     n_jobs: int | None
     emulator: EmulatorSettings
     integration: IntegrationSettings
@@ -168,6 +180,7 @@ class CalibrationSettings:
             verbose=p["verbose"],
             discrepancy_uncertainty=p["discrepancy_uncertainty"],
             discrepancy_prior=p["discrepancy_prior"],
+            discrepancy_tol=p["discrepancy_tol"],
             n_jobs=p["n_jobs"],
             emulator=EmulatorSettings(
                 kernel=p["model_kernel"],

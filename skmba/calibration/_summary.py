@@ -32,6 +32,10 @@ CALIBRATION_COLUMNS = (
     "sd",
     "2.5%",
     "97.5%",
+    "mcse_mean",
+    "mcse_sd",
+    "mcse_2.5%",
+    "mcse_97.5%",
     "prior_mean",
     "prior_sd",
     "sd_ratio",
@@ -122,7 +126,10 @@ class CalibrationSummaryMixin:
         a ``DataTree`` with 1.x) with the groups ``posterior`` (one variable
         per name of ``parameter_names_``, dims (chain, draw); with
         quadrature one pseudo-chain of independent draws, said in its
-        ``note`` attribute), ``sample_stats`` (MCMC: ``lp``,
+        ``note`` attribute; with ``discrepancy_tol``, the Monte Carlo
+        errors ``mcse_mean_<name>``, ``mcse_sd_<name>``,
+        ``mcse_2.5%_<name>``, ``mcse_97.5%_<name>`` and
+        ``discrepancy_draws`` as attributes), ``sample_stats`` (MCMC: ``lp``,
         ``acceptance_rate``), ``prior``, ``observed_data`` and
         ``constant_data``. Read more in :ref:`user-guide-diagnostics`.
 
@@ -152,8 +159,11 @@ class CalibrationSummaryMixin:
         ----------
         kind : {"table", "text"}, default="table"
             ``"table"``: one row per parameter with ``mean``, ``sd``,
-            ``2.5%``, ``97.5%``, ``prior_mean``, ``prior_sd``, ``sd_ratio``
-            (posterior over prior sd), ``r_hat``, ``ess_bulk`` (NaN with
+            ``2.5%``, ``97.5%``, their Monte Carlo standard errors from the
+            integral over the discrepancy hyperparameters (``mcse_mean``,
+            ``mcse_sd``, ``mcse_2.5%``, ``mcse_97.5%``: ``theta_mcse_``, NaN
+            unless ``discrepancy_tol`` is set), ``prior_mean``, ``prior_sd``,
+            ``sd_ratio`` (posterior over prior sd), ``r_hat``, ``ess_bulk`` (NaN with
             quadrature) and ``identifiability`` when the calibrator has it.
             ``"text"``: the same on one line, for logs.
 
@@ -184,6 +194,7 @@ class CalibrationSummaryMixin:
             "sd": sd,
             "2.5%": np.quantile(samples, 0.025, axis=0),
             "97.5%": np.quantile(samples, 0.975, axis=0),
+            **dict(zip(CALIBRATION_COLUMNS[4:8], self._mcse(r), strict=True)),
             "prior_mean": self.prior_.mean(),
             "prior_sd": prior_sd,
             "sd_ratio": ratio,
@@ -194,6 +205,11 @@ class CalibrationSummaryMixin:
             "robust_97.5%": self.theta_robust_interval_[:, 1],
         }
         return columns
+
+    def _mcse(self, r):
+        """The rows of ``theta_mcse_`` (NaN for a fit from before it)."""
+        mcse = getattr(self, "theta_mcse_", None)
+        return np.full((4, r), np.nan) if mcse is None else np.asarray(mcse, float)
 
     def _summary_text(self):
         """One line for logs: each parameter's mean, sd, interval and
@@ -206,6 +222,11 @@ class CalibrationSummaryMixin:
                 f"[95% {columns['2.5%'][j]:.5g}, {columns['97.5%'][j]:.5g}], "
                 f"sd/prior sd {columns['sd_ratio'][j]:.3g}"
             )
+            if not math.isnan(columns["mcse_sd"][j]):
+                text += (
+                    f", Monte Carlo error of mean/sd {columns['mcse_mean'][j]:.2g}"
+                    f"/{columns['mcse_sd'][j]:.2g}"
+                )
             if not math.isnan(columns["r_hat"][j]):
                 r_hat, ess = columns["r_hat"][j], columns["ess_bulk"][j]
                 text += f", R-hat {r_hat:.3f}, ESS {ess:.0f}"
@@ -244,6 +265,13 @@ class CalibrationSummaryMixin:
             chains = np.asarray(self.theta_samples_, dtype=float)[order][np.newaxis]
             stats = None
             attrs = {"sampler": "quadrature (skmba)", "note": QUADRATURE_NOTE}
+        mcse = self._mcse(len(names))
+        if not np.all(np.isnan(mcse)):
+            # ArviZ's attrs hold scalars: one per parameter and summary.
+            for row, label in zip(mcse, CALIBRATION_COLUMNS[4:8], strict=True):
+                for name, value in zip(names, row, strict=True):
+                    attrs[f"{label}_{name}"] = float(value)
+            attrs["discrepancy_draws"] = int(self.discrepancy_draws_)
         n_draws = chains.shape[0] * chains.shape[1]
         prior_draws = self.prior_.rvs(
             n_draws if n_prior_draws is None else int(n_prior_draws), random_state=rng

@@ -1,0 +1,155 @@
+"""The integral over module 2's hyperparameters to a stated Monte Carlo error
+(skmba.calibration._module2_converged, ``discrepancy_tol``)."""
+
+import warnings
+
+import numpy as np
+import pytest
+from scipy import special, stats
+
+import skmba.calibration._module2_converged as converged
+from skmba import ModularBayesCalibrator
+from skmba.calibration._module2_converged import ThetaGrid
+from skmba.priors._theta import check_prior
+from validation.cases import case_freq
+
+TOL = 0.1
+
+
+def _fit(case, random_state, tol=TOL):
+    cal = ModularBayesCalibrator(
+        prior=case.prior, random_state=random_state, discrepancy_tol=tol
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        return cal.fit(
+            case.X, case.y, X_sim=case.X_sim, theta_sim=case.theta_sim, y_sim=case.y_sim
+        )
+
+
+@pytest.fixture(scope="module")
+def case():
+    return case_freq(0)
+
+
+@pytest.fixture(scope="module")
+def fits(case):
+    return [_fit(case, random_state) for random_state in (0, 1)]
+
+
+def test_grid_weights_are_the_mixtures_posterior(fits):
+    # Identity: the posterior on the grid is the fitted mixture's own log
+    # posterior (all draws, their importance weights) times the trapezoid.
+    cal = fits[0]
+    nodes, weights = cal.theta_nodes_[:, 0], cal.theta_weights_
+    log_post = np.array([cal.log_posterior(np.array([t])) for t in nodes])
+    trapezoid = np.full(len(nodes), nodes[1] - nodes[0])
+    trapezoid[[0, -1]] *= 0.5
+    expected = np.exp(log_post - special.logsumexp(log_post, b=trapezoid)) * trapezoid
+    np.testing.assert_allclose(weights, expected, rtol=1e-8, atol=1e-300)
+    assert cal.discrepancy_draws_ == len(cal.global_model_.models) >= 512
+
+
+def test_same_data_same_interval_within_the_reported_error(fits):
+    # Two seeds differ by their Monte Carlo errors, no more: the difference
+    # of each summary within 4 combined standard errors...
+    a, b = fits
+    summaries = []
+    for cal in fits:
+        q = np.quantile(cal.theta_samples_[:, 0], [0.025, 0.975])
+        sd = np.sqrt(cal.theta_cov_[0, 0])
+        summaries.append(np.r_[cal.theta_mean_[0], sd, q])
+    se = np.hypot(a.theta_mcse_[:, 0], b.theta_mcse_[:, 0])
+    assert np.all(np.abs(summaries[0] - summaries[1]) <= 4 * se)
+    # ...and the errors are those asked for, not vacuous ones.
+    for cal, values in zip(fits, summaries, strict=True):
+        relative = cal.theta_mcse_[:, 0] / values[1]
+        assert np.all(relative[:2] <= TOL) and np.all(relative[2:] <= 2 * TOL)
+        assert np.all(relative > 1e-4)
+
+
+def test_predictive_noise_comes_from_the_same_weights(fits):
+    # One posterior for the hyperparameters: the noise a new observation
+    # adds is their posterior mean under the weights of module 3's mixture.
+    cal = fits[0]
+    mixture = cal.global_model_
+    nodes = cal.theta_nodes_
+    scaler_theta = (nodes - cal.theta_offset_) / cal.theta_scale_
+    log_l = mixture.batch_component_log_likelihoods(scaler_theta)
+    log_prior = np.ravel(cal.prior_.logpdf(nodes))
+    trapezoid = np.full(len(nodes), nodes[1, 0] - nodes[0, 0])
+    trapezoid[[0, -1]] *= 0.5
+    log_z = special.logsumexp(log_l + (log_prior + np.log(trapezoid))[:, None], axis=0)
+    weights = np.exp(log_z - special.logsumexp(log_z))
+    noise = weights @ np.array([m.noise for m in mixture.models])
+    np.testing.assert_allclose(mixture.predictive_noise, noise, rtol=1e-10)
+
+
+def test_trapezoid_grid_integrates_a_gaussian():
+    prior = check_prior([stats.uniform(-50, 100)])
+    grid = ThetaGrid.around(prior, 0.3, 1.0)
+    assert grid.step <= converged.GRID_STEP
+    trapezoid = np.exp(grid.log_weights) * 100.0  # over the prior density
+    gauss = stats.norm(0.3, 1.0).pdf(grid.nodes)
+    assert np.sum(trapezoid * gauss) == pytest.approx(1.0, rel=1e-10)
+    finer = grid.refined(prior)
+    np.testing.assert_allclose(finer.nodes[::2], grid.nodes, rtol=0, atol=1e-12)
+    wider = grid.extended(prior, True, False)
+    assert wider.step == pytest.approx(grid.step)
+    assert wider.nodes[0] < grid.nodes[0] and wider.nodes[-1] == grid.nodes[-1]
+
+
+def test_grid_stays_inside_the_prior():
+    prior = check_prior([stats.uniform(0.0, 1.0)])
+    grid = ThetaGrid.around(prior, 0.05, 0.1)
+    lo, hi = prior.bounds(0.9999)[0]
+    assert grid.nodes[0] == pytest.approx(lo) and grid.nodes[-1] <= hi
+    assert np.all(np.isfinite(grid.log_weights))
+
+
+def test_warns_when_the_tolerance_is_not_reached(case, monkeypatch):
+    monkeypatch.setattr(converged, "MAX_DRAWS", 2 * converged.N_BLOCK)
+    monkeypatch.setattr(converged, "MIN_BLOCKS", 2)
+    cal = ModularBayesCalibrator(prior=case.prior, random_state=0, discrepancy_tol=1e-4)
+    with pytest.warns(UserWarning, match="did not reach its Monte Carlo tolerance"):
+        cal.fit(
+            case.X, case.y, X_sim=case.X_sim, theta_sim=case.theta_sim, y_sim=case.y_sim
+        )
+    assert cal.discrepancy_draws_ == 2 * converged.N_BLOCK
+    assert np.all(np.isfinite(cal.theta_mcse_))
+
+
+def test_default_reports_no_error(case):
+    cal = ModularBayesCalibrator(prior=case.prior, random_state=0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        cal.fit(
+            case.X, case.y, X_sim=case.X_sim, theta_sim=case.theta_sim, y_sim=case.y_sim
+        )
+    assert np.all(np.isnan(cal.theta_mcse_)) and cal.discrepancy_draws_ == 16
+    table = cal.summary()
+    assert np.isnan(table["mcse_sd"].iloc[0])
+
+
+@pytest.mark.parametrize("tol", [0.0, -0.1, "0.05", np.inf])
+def test_discrepancy_tol_is_checked(case, tol):
+    cal = ModularBayesCalibrator(prior=case.prior, discrepancy_tol=tol)
+    with pytest.raises((ValueError, TypeError), match="discrepancy_tol"):
+        cal.fit(
+            case.X, case.y, X_sim=case.X_sim, theta_sim=case.theta_sim, y_sim=case.y_sim
+        )
+
+
+def test_summary_and_arviz_carry_the_errors(fits):
+    cal = fits[0]
+    table = cal.summary()
+    np.testing.assert_array_equal(
+        table[["mcse_mean", "mcse_sd", "mcse_2.5%", "mcse_97.5%"]].to_numpy()[0],
+        cal.theta_mcse_[:, 0],
+    )
+    assert "Monte Carlo error of mean/sd" in cal.summary(kind="text")
+    pytest.importorskip("arviz")
+    idata = cal.to_inference_data()
+    attrs = idata["posterior"].attrs
+    assert attrs["mcse_sd_theta0"] == pytest.approx(cal.theta_mcse_[1, 0])
+    assert attrs["discrepancy_draws"] == cal.discrepancy_draws_
