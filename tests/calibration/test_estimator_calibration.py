@@ -1159,7 +1159,9 @@ def test_module2_treatments():
     assert plug_in.global_model_.log_likelihood(t_std) == base.log_likelihood(t_std)
     for cal in (default, plug_in):
         assert cal.identifiability_.shape == (1,)
-        assert 0 <= cal.identifiability_[0] <= 1
+        # E is confounded with the discrepancy on the cantilever (a spring
+        # or a softer beam change both responses alike): far below 1/3.
+        assert 0 < cal.identifiability_[0] < 0.05
         # E is confounded here: the robust interval is wider than the
         # posterior's, holds it, and stays in the prior.
         lo, hi = np.quantile(cal.theta_samples_[:, 0], [0.025, 0.975])

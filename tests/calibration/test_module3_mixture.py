@@ -122,7 +122,17 @@ def test_draw_weights_and_effective_draws(problem):
     t = np.array([0.2])
     w = mix.draw_weights(t)
     assert w.sum() == pytest.approx(1.0) and np.all(w >= 0)
-    assert 1.0 <= mix.effective_draws(t) <= 8.0
+    # Known answers: eight copies of one draw, equally weighted, are eight
+    # effective draws; with weights 1 and 3 of two copies, (1+3)^2/(1+9) = 1.6.
+    one = _draws(K=1, seed=1)
+    same = HyperposteriorDraws(
+        None, one.components * 8, np.full(8, -np.log(8.0)), None, one.noise_mean, 8.0
+    )
+    assert ModelMixture(gm, same).effective_draws(t) == pytest.approx(8.0, rel=1e-12)
+    pair = HyperposteriorDraws(
+        None, one.components * 2, np.log([0.25, 0.75]), None, one.noise_mean, 2.0
+    )
+    assert ModelMixture(gm, pair).effective_draws(t) == pytest.approx(1.6, rel=1e-12)
     # A component's conditional moments are those of its own global model.
     X = np.array([[0.3], [-0.2]])
     m1 = conditional_moments(mix.models[3], t, X, "reality")
