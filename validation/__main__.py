@@ -67,6 +67,12 @@ def _parser(specs):
         "--cases", default=",".join(specs), help=f"comma list of {', '.join(specs)}"
     )
     parser.add_argument("--out", default=None, help="directory for the results")
+    parser.add_argument(
+        "--discrepancy-tol",
+        type=float,
+        default=None,
+        help="the calibrator's discrepancy_tol (default: its default, None)",
+    )
     parser.add_argument("--quiet", action="store_true", help="no progress lines")
     parser.add_argument(
         "--combine",
@@ -109,12 +115,20 @@ def main(argv=None):
     seeds.update({k: v for k, v in parse_case_seeds(args.case_seeds).items()
                   if k in seeds})  # fmt: skip
 
-    print("skmba validity suite: ModularBayesCalibrator with its current defaults")
+    options = {}
+    if args.discrepancy_tol is not None:
+        options["discrepancy_tol"] = args.discrepancy_tol
+    print(
+        "skmba validity suite: ModularBayesCalibrator with its current defaults"
+        + "".join(f", {k}={v}" for k, v in options.items())
+    )
     for name in names:
         print(f"  {name:<7} {seeds[name]:>3} seeds  {specs[name].description}")
     print(f"  n_jobs={args.n_jobs}; 95 % intervals; 30 dB noise\n", flush=True)
     started = time.perf_counter()
-    records = run(names, seeds, n_jobs=args.n_jobs, progress=not args.quiet)
+    records = run(
+        names, seeds, n_jobs=args.n_jobs, progress=not args.quiet, options=options
+    )
     wall = time.perf_counter() - started
     summary = summarise(records)
     table = format_tables(summary)

@@ -32,7 +32,7 @@ ROOT = Path(__file__).resolve().parents[1]
 _RESULTS_HEAD = (
     f"{'case':<7} {'seeds':>5}  {'theta* covered':<14} "
     f"{'Wilson 95 %':<27} {'rms z':<11} {'SBC chi2 p':<16} "
-    f"{'KS p':<16} {'reality':>7} {'new obs':>7}  warnings (seeds)"
+    f"{'KS p':<16} {'ECDF 95 %':<10} {'reality':>7} {'new obs':>7}  warnings (seeds)"
 )
 _DETAILS_HEAD = (
     f"{'case':<7} {'mean z':<13} {'post. sd: median [max]':<34} "
@@ -40,6 +40,12 @@ _DETAILS_HEAD = (
     f"{'identifiability_':<17} {'robust covered [width]':<23} "
     f"{'reality, new obs: 95 % CI':<27} {'one draw':<8} fit [s]"
 )
+
+
+def _band(inside):
+    """``in``/``out`` per parameter: the rank ECDF inside its 95 % band."""
+    words = {True: "in", False: "out"}
+    return ", ".join(words.get(v, "-") if v == v else "-" for v in inside)
 
 
 def _join(values, fmt):
@@ -63,7 +69,8 @@ def _results_row(name, s):
     return (
         f"{name:<7} {n:>5}  {covered:<14} {wilson:<27} "
         f"{_join(s['rms_z'], '.2f'):<11} {_join(s['chi2_p'], '.2g'):<16} "
-        f"{_join(s['ks_p'], '.2g'):<16} {s['cover_reality']:>7.3f} "
+        f"{_join(s['ks_p'], '.2g'):<16} {_band(s['ecdf_inside']):<10} "
+        f"{s['cover_reality']:>7.3f} "
         f"{s['cover_obs']:>7.3f}  {warned or '-'}{failed}"
     )
 

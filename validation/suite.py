@@ -83,9 +83,11 @@ def held_out_inputs(bounds, n=N_TEST):
     return (lo + (np.arange(n) + 0.5) / n * (hi - lo))[:, None]
 
 
-def _fit_and_score(spec, seed, n_test, n_rank):
+def _fit_and_score(spec, seed, n_test, n_rank, options=None):
     case = spec.build(seed)
-    cal = ModularBayesCalibrator(prior=case.prior, random_state=seed, n_jobs=1)
+    cal = ModularBayesCalibrator(
+        prior=case.prior, random_state=seed, n_jobs=1, **(options or {})
+    )
     started = time.perf_counter()
     cal.fit(case.X, case.y, X_sim=case.X_sim, theta_sim=case.theta_sim,
             y_sim=case.y_sim)  # fmt: skip
@@ -131,12 +133,13 @@ def _fit_and_score(spec, seed, n_test, n_rank):
     }
 
 
-def run_replicate(name, seed, n_test=N_TEST, n_rank=N_RANK):
+def run_replicate(name, seed, n_test=N_TEST, n_rank=N_RANK, options=None):
     """Fit one seed of one case and score it; never raises.
 
     Returns a dict with ``case``, ``seed``, ``ok``, ``error``, the warnings
     (``warning_categories``, ``warning_messages``), the wall time
     ``seconds`` and, when ``ok``, the scores of ``_fit_and_score``.
+    ``options``: calibrator parameters other than the defaults.
     """
     spec = registry()[name]
     record = {"case": name, "seed": int(seed), "ok": False, "error": ""}
@@ -147,7 +150,7 @@ def run_replicate(name, seed, n_test=N_TEST, n_rank=N_RANK):
     ):
         warnings.simplefilter("always")
         try:
-            record.update(_fit_and_score(spec, seed, n_test, n_rank))
+            record.update(_fit_and_score(spec, seed, n_test, n_rank, options))
             record["ok"] = True
         except Exception as exc:  # a failed fit is a result, not a crash
             record["error"] = f"{type(exc).__name__}: {exc}"[:300]
@@ -162,8 +165,9 @@ def run_replicate(name, seed, n_test=N_TEST, n_rank=N_RANK):
 # --------------------------------------------------------------------------
 
 
-def run(names, seeds_per_case, n_jobs=1, progress=True):
-    """Run the replicates of ``names`` (``seeds_per_case[name]`` each).
+def run(names, seeds_per_case, n_jobs=1, progress=True, options=None):
+    """Run the replicates of ``names`` (``seeds_per_case[name]`` each), with
+    the calibrator parameters ``options`` (None: the defaults).
 
     Returns the records sorted by case (in ``names`` order) and seed.
     """
@@ -172,7 +176,7 @@ def run(names, seeds_per_case, n_jobs=1, progress=True):
     # slowest cases first, seeds interleaved so that every case makes progress
     tasks.sort(key=lambda t: (t[1], order.get(t[0], -1)))
     results = Parallel(n_jobs=n_jobs, batch_size=1, return_as="generator_unordered")(
-        delayed(run_replicate)(name, seed) for name, seed in tasks
+        delayed(run_replicate)(name, seed, options=options) for name, seed in tasks
     )
     records = []
     for i, rec in enumerate(results, 1):

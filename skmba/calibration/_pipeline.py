@@ -39,7 +39,7 @@ from skmba._core.progress import duration_text
 from skmba._core.regression import n_regression_terms
 from skmba._core.warn import warn
 from skmba.calibration._module1_emulator import Standardizer, fit_emulator
-from skmba.calibration._module2_converged import converge
+from skmba.calibration._module2_converged import MAX_DRAWS, converge
 from skmba.calibration._module2_plug_in import fit_discrepancy
 from skmba.calibration._module2_posterior import (
     N_HYPER_DRAWS,
@@ -256,6 +256,13 @@ def run_modules(settings, X, Y, sims, prior, module2_spec, seeds, progress):
         module2, module3 = _propagated(inputs, integrated, module2_spec, seeds)
         hyperprior = module2_spec
     else:
+        if settings.discrepancy_tol is not None:
+            warn(
+                "discrepancy_tol is not applied with "
+                'discrepancy_uncertainty="plug-in": the hyperparameters are '
+                'plugged in, not integrated out; use "propagate".',
+                UserWarning,
+            )
         module2 = _plug_in(inputs, integrated, module2_spec, seeds[2], started)
         module3 = fit_module3(inputs, module2, seeds[3])
         hyperprior = Hyperprior()
@@ -301,9 +308,7 @@ def _propagated(inputs, integrated, hyperprior, seeds):
             n_jobs=inputs.settings.n_jobs,
         )
 
-    converged = (
-        _sampler(inputs) == "quadrature" and inputs.settings.discrepancy_tol is not None
-    )
+    converged = _tolerance_applies(inputs)
     draws, first = propagated_module2(
         integrated,
         first_pass=lambda i: _draws(inputs, i, hyperprior, seeds[2], "1st pass", False),
@@ -318,6 +323,21 @@ def _propagated(inputs, integrated, hyperprior, seeds):
     return draws, fit_module3(inputs, draws, seeds[5], earlier=first.posterior)
 
 
+def _tolerance_applies(inputs):
+    """Whether ``discrepancy_tol`` applies (set, one parameter, quadrature);
+    a warning when it is set but cannot."""
+    tol, sampler = inputs.settings.discrepancy_tol, _sampler(inputs)
+    if tol is not None and sampler != "quadrature":
+        warn(
+            f"discrepancy_tol={tol:g} is not applied: it needs one calibration "
+            f"parameter and its quadrature (here {inputs.prior.dim} parameter(s), "
+            f'sampler "{sampler}"); module 3 mixes 16 draws of the '
+            "hyperparameters instead, and theta_mcse_ is NaN.",
+            UserWarning,
+        )
+    return tol is not None and sampler == "quadrature"
+
+
 def _converged(inputs, module2, first, seed):
     """One parameter: the integral over the hyperparameters to the
     calibrator's tolerance (:func:`~skmba.calibration._module2_converged.
@@ -325,6 +345,8 @@ def _converged(inputs, module2, first, seed):
     started = time.perf_counter()
     settings = inputs.settings
     base = GlobalModel(inputs.emulator, inputs.Xs, inputs.Ys, module2.mode)
+    (n, _), q = inputs.Xs.shape, inputs.Ys.shape[1]
+    check_global_memory(inputs.emulator.N, n, q, base.P, 1, MAX_DRAWS)
     result = converge(
         module2,
         base,
@@ -335,10 +357,6 @@ def _converged(inputs, module2, first, seed):
         n_samples=settings.sampler.n_samples,
         random_state=seed,
         say=inputs.progress.info,
-    )
-    (n, _), q = inputs.Xs.shape, inputs.Ys.shape[1]
-    check_global_memory(
-        inputs.emulator.N, n, q, base.P, 1, len(result.draws.components)
     )
     model = ModelMixture(base, result.draws)
     log_post = LogPosterior(inputs.prior, model, inputs.scaler, inputs.sims.theta)

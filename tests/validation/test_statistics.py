@@ -142,3 +142,26 @@ def test_observation_coverage_is_the_chance_of_a_fresh_draw():
     one = fresh_observations(truth, noise_sd, seed=3)
     again = fresh_observations(truth, noise_sd, seed=3)
     np.testing.assert_array_equal(one, again)
+
+
+def test_rank_ecdf_band_known_answers():
+    from validation.statistics import rank_ecdf_band
+
+    pytest.importorskip("arviz")
+    # Every rank equally often: the ECDF is the uniform's, inside.
+    assert rank_ecdf_band(np.repeat(np.arange(101), 2)) == (True, 0.0)
+    # Every rank 0 (theta* below every draw): the ECDF is 1 from the start.
+    inside, excess = rank_ecdf_band(np.zeros(200, dtype=int))
+    assert not inside and excess > 0.9
+
+
+def test_rank_ecdf_band_holds_its_level():
+    # Calibrated ranks fall inside the simultaneous 95 % band at that rate:
+    # 400 sets of 200 uniform ranks, the Wilson interval contains 0.95.
+    from validation.statistics import rank_ecdf_band, wilson_interval
+
+    pytest.importorskip("arviz")
+    rng = np.random.default_rng(0)
+    inside = sum(rank_ecdf_band(rng.integers(0, 101, 200))[0] for _ in range(400))
+    lo, hi = wilson_interval(inside, 400)
+    assert lo <= 0.95 <= hi

@@ -1,0 +1,145 @@
+"""The integral over the discrepancy hyperparameters to ``discrepancy_tol``.
+
+Two measurements of the calibrator with ``discrepancy_tol`` set (issue 30):
+
+- ``--refits N``: per case, the seed-0 data refitted with ``random_state``
+  0..N-1: the spread of theta's posterior mean, sd and 95 % interval ends
+  over the refits (coefficient of variation of the sd, largest distance of
+  each end from its mean in posterior sds), against the Monte Carlo errors
+  the fits report (``theta_mcse_``), the draws and the time;
+- ``--reference``: each (case, seed) row of
+  ``validation/results/joint_reference/joint_reference.csv`` fitted with
+  ``random_state=seed`` (the reference's emulator): its posterior sd and
+  mean against the joint-MCMC reference's.
+
+Usage::
+
+    python -m validation.studies.converged_integral --cases a1,c1,c3,freq \\
+        --refits 6 --tol 0.05 --n-jobs 2
+    python -m validation.studies.converged_integral --reference --tol 0.05 --n-jobs 2
+
+Quoted in ``docs/validity.rst`` ("The same data, the same interval").
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+import threadpoolctl
+from joblib import Parallel, delayed
+
+from skmba import ModularBayesCalibrator
+from validation.suite import registry
+
+REFERENCE = (
+    Path(__file__).resolve().parents[1]
+    / "results"
+    / "joint_reference"
+    / "joint_reference.csv"
+)
+
+
+def fit_summary(name, seed, random_state, tol):
+    """One fit: mean, sd, 95 % ends, their reported errors, draws, seconds."""
+    case = registry()[name].build(seed)
+    started = time.perf_counter()
+    with threadpoolctl.threadpool_limits(1), warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        cal = ModularBayesCalibrator(
+            prior=case.prior, random_state=random_state, n_jobs=1, discrepancy_tol=tol
+        ).fit(
+            case.X, case.y, X_sim=case.X_sim, theta_sim=case.theta_sim, y_sim=case.y_sim
+        )
+    ends = np.quantile(cal.theta_samples_[:, 0], [0.025, 0.975])
+    return {
+        "values": np.r_[cal.theta_mean_[0], np.sqrt(cal.theta_cov_[0, 0]), ends],
+        "mcse": cal.theta_mcse_[:, 0],
+        "draws": cal.discrepancy_draws_,
+        "seconds": time.perf_counter() - started,
+    }
+
+
+def refit_row(name, fits):
+    """The spread over refits of one case's data, in its posterior sds."""
+    values = np.array([f["values"] for f in fits])
+    sd = values[:, 1].mean()
+    deviation = np.abs(values - values.mean(axis=0)).max(axis=0) / sd
+    reported = np.mean([f["mcse"] for f in fits], axis=0) / sd
+    seconds = [f["seconds"] for f in fits]
+    return (
+        f"{name:8s} sd {sd:.5g}  CV of sd {values[:, 1].std(ddof=1) / sd:.3f}  "
+        f"mean spread {values[:, 0].std(ddof=1) / sd:.3f} sd  ends max dev. "
+        f"{deviation[2]:.2f}, {deviation[3]:.2f} sd  reported se (mean, sd, ends) "
+        f"{np.array2string(reported, precision=3)}  draws "
+        f"{np.mean([f['draws'] for f in fits]):.0f}  time "
+        f"{min(seconds):.0f}-{max(seconds):.0f} s"
+    )
+
+
+def reference_rows():
+    """The (case, seed, reference mean, sd, its error) of the joint reference."""
+    with open(REFERENCE) as handle:
+        rows = csv.DictReader(line for line in handle if not line.startswith("#"))
+        return [
+            (
+                r["case"],
+                int(r["seed"]),
+                float(r["reference_mean"]),
+                float(r["reference_sd"]),
+                float(r["reference_sd_mcse"]),
+                float(r["sd_ratio"]),
+            )
+            for r in rows
+        ]
+
+
+def reference_row(row, fit):
+    """One fit against the joint reference."""
+    name, seed, mean, sd, mcse, default = row
+    ratio = fit["values"][1] / sd
+    return (
+        f"{name:8s} {seed}  sd ratio {ratio:.3f} (reference's error "
+        f"{mcse / sd:.3f}, reported error {fit['mcse'][1] / sd:.3f}; 16 draws "
+        f"{default:.3f})  |dmean| {abs(fit['values'][0] - mean) / sd:.3f} sd  "
+        f"draws {fit['draws']}  {fit['seconds']:.0f} s"
+    )
+
+
+def _parser():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--cases", default="a1,c1,c3,freq")
+    parser.add_argument("--refits", type=int, default=6)
+    parser.add_argument("--reference", action="store_true")
+    parser.add_argument(
+        "--only", action="store_true", help="with --reference: only --cases"
+    )
+    parser.add_argument("--tol", type=float, default=0.05)
+    parser.add_argument("--n-jobs", type=int, default=1)
+    return parser
+
+
+def main(argv=None):
+    args = _parser().parse_args(argv)
+    run = Parallel(n_jobs=args.n_jobs)
+    if args.reference:
+        cases = args.cases.split(",") if args.only else None
+        rows = [r for r in reference_rows() if cases is None or r[0] in cases]
+        fits = run(delayed(fit_summary)(r[0], r[1], r[1], args.tol) for r in rows)
+        for row, fit in zip(rows, fits, strict=True):
+            print(reference_row(row, fit))
+        return
+    names = args.cases.split(",")
+    tasks = [(n, k) for n in names for k in range(args.refits)]
+    fits = run(delayed(fit_summary)(n, 0, k, args.tol) for n, k in tasks)
+    for name in names:
+        pairs = zip(tasks, fits, strict=True)
+        print(refit_row(name, [f for (n, _), f in pairs if n == name]))
+
+
+if __name__ == "__main__":
+    main()
