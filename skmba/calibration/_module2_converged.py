@@ -81,6 +81,9 @@ _NARROW_SHARE = 0.01
 #: Interval ends are held to this multiple of the tolerance: the tails rest
 #: on fewer draws than the mean and sd.
 END_TOLERANCE = 2.0
+#: Most nodes a refinement may make (each node costs a factorisation per
+#: draw).
+_MAX_NODES = 600
 #: Most refinements or extensions of the grid.
 _GRID_CHANGES = 6
 
@@ -442,6 +445,7 @@ def converge(
         draws = _new_blocks(draws, evaluate, grid, proposal, n_blocks, draw_seed)
         errors = _block_errors(draws, grid)
         narrow, lower, upper = _grid_problems(errors[3], grid, errors[2])
+        narrow = narrow and 2 * len(grid.nodes) - 1 <= _MAX_NODES
         if (narrow or lower or upper) and changes < _GRID_CHANGES:
             grid = grid.refined(prior) if narrow else grid.extended(prior, lower, upper)
             draws = _Draws(
