@@ -335,6 +335,20 @@ def _new_blocks(draws, evaluate, grid, proposal, n_blocks, seed):
     return draws
 
 
+def _regridded(draws, grid, prior, evaluate, narrow, lower, upper):
+    """The grid refined (``narrow``; the old nodes, every other new one,
+    keep their values) or extended at the flagged ends, and the draws'
+    log likelihoods on it."""
+    if narrow:
+        grid = grid.refined(prior)
+        L = np.empty((len(grid.nodes), len(draws.log_w)))
+        L[::2], L[1::2] = draws.L, evaluate(draws.V, grid.nodes[1::2])
+    else:
+        grid = grid.extended(prior, lower, upper)
+        L = evaluate(draws.V, grid.nodes)
+    return grid, _Draws(draws.V, draws.log_w, draws.block, L)
+
+
 def _tolerances(tol):
     """The tolerance of the mean, sd and interval ends, in posterior sds."""
     return tol * np.array([1.0, 1.0, END_TOLERANCE, END_TOLERANCE])
@@ -447,10 +461,7 @@ def converge(
         narrow, lower, upper = _grid_problems(errors[3], grid, errors[2])
         narrow = narrow and 2 * len(grid.nodes) - 1 <= _MAX_NODES
         if (narrow or lower or upper) and changes < _GRID_CHANGES:
-            grid = grid.refined(prior) if narrow else grid.extended(prior, lower, upper)
-            draws = _Draws(
-                draws.V, draws.log_w, draws.block, evaluate(draws.V, grid.nodes)
-            )
+            grid, draws = _regridded(draws, grid, prior, evaluate, narrow, lower, upper)
             changes += 1
             continue
         pooled, se = errors[:2]
