@@ -13,7 +13,9 @@ Each module is a script, ``python -m validation.studies.<name> --help``:
 - ``new_observation_noise``: why new observations are covered a little
   under 95 % (the noise, the emulator, the ideal reference);
 - ``joint_reference``: the default posterior of theta against the joint
-  posterior of theta and the module-2 hyperparameters (long MCMC).
+  posterior of theta and the module-2 hyperparameters (long MCMC);
+- ``converged_integral``: with ``discrepancy_tol``, the spread of theta's
+  posterior over ``random_state`` and its agreement with that reference.
 
 They take their cases from :func:`validation.suite.registry` (or
 :mod:`validation.cases`) and their statistics from
