@@ -9,7 +9,8 @@
 * :func:`make_bridge_monitoring`: a year of hourly natural frequencies of a
   concrete bridge deck (beam finite elements, modal analysis) against the
   air temperature, stiffening below freezing, with outages and an optional
-  damage event.
+  damage event; :class:`OpenSeesBridgeModel`, its simulator solved by
+  OpenSeesPy (optional extra ``skmba[opensees]``).
 
 Examples
 --------
@@ -25,6 +26,7 @@ Examples
 
 from skmba.datasets._bridge_model import BridgeModel, BridgeReality
 from skmba.datasets._bridge_monitoring import make_bridge_monitoring
+from skmba.datasets._bridge_opensees import OpenSeesBridgeModel
 from skmba.datasets._cantilever import make_cantilever
 from skmba.datasets._cantilever_model import CantileverModel, CantileverReality
 from skmba.datasets._truss_bridge import make_truss_bridge
@@ -34,6 +36,7 @@ __all__ = [
     "BridgeReality",
     "CantileverModel",
     "CantileverReality",
+    "OpenSeesBridgeModel",
     "make_bridge_monitoring",
     "make_cantilever",
     "make_truss_bridge",

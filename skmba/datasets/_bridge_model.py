@@ -5,6 +5,8 @@
 * :func:`deck_matrices`: their assembly over the deck;
 * :func:`natural_frequencies`: the generalised eigenproblem, in Hz;
 * :func:`youngs_modulus_at`, :func:`frost_degrees`: the laws of temperature;
+* :func:`temperature_column`, :func:`parameter_rows`: the simulator's
+  arguments checked (also for the OpenSees model of the same deck);
 * :class:`BridgeModel` (the simulator) and :class:`BridgeReality`, the
   picklable callables that :func:`~skmba.datasets.make_bridge_monitoring`
   returns.
@@ -240,7 +242,7 @@ def frost_degrees(
     return np.where(u > 0.0, ramp, 0.0)
 
 
-def _temperature_column(X):
+def temperature_column(X):
     """The temperatures [degC]: the first column of ``X``, (n, 1); 1-D is a column."""
     X = np.asarray(X, dtype=float)
     if X.ndim == 1:
@@ -254,7 +256,7 @@ def _temperature_column(X):
     return X[:, 0]
 
 
-def _parameter_rows(theta, n):
+def parameter_rows(theta, n):
     """``theta`` as (n, 2) rows (E [Pa], k_bearing [N/m]); one row is broadcast."""
     theta = np.asarray(theta, dtype=float)
     if theta.ndim == 1:
@@ -391,8 +393,8 @@ class BridgeModel(_Deck):
         -------
         ndarray of shape (n, n_modes)
         """
-        T = _temperature_column(X)
-        theta = _parameter_rows(theta, T.shape[0])
+        T = temperature_column(X)
+        theta = parameter_rows(theta, T.shape[0])
         EI = self._modulus(theta[:, 0], T) * self.second_moment
         return self._frequencies(EI, theta[:, 1])
 
@@ -478,7 +480,7 @@ class BridgeReality(_Deck):
 
     def __call__(self, X):
         """Frequencies [Hz] of shape (n, n_modes) at the temperatures ``X`` (n, 1)."""
-        T = _temperature_column(X)
+        T = temperature_column(X)
         frost = frost_degrees(T)
         EI = self._modulus(self.E, T) * self.second_moment
         EI = EI * (1.0 + self.deck_frost_stiffening * frost)
