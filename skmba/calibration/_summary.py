@@ -21,7 +21,12 @@ import math
 import warnings
 
 import numpy as np
+from scipy import stats
 from sklearn.utils.validation import check_is_fitted
+
+from skmba.kernels import Gauss
+from skmba.priors._hyperprior import Hyperprior
+from skmba.priors._table_6_2 import check_discrepancy_ranges
 
 #: What to install for ``to_inference_data``.
 ARVIZ_EXTRA = 'pip install "skmba[arviz]"'
@@ -45,6 +50,18 @@ CALIBRATION_COLUMNS = (
     "robust_2.5%",
     "robust_97.5%",
 )
+
+
+#: The columns of the calibrator's ``discrepancy_prior_summary()``.
+PRIOR_COLUMNS = ("prior_2.5%", "prior_97.5%", "fitted", "field_spread")
+
+
+def _log_uniform_quantiles(bounds, p=(0.025, 0.975)):
+    """Quantiles ``p`` of a log-uniform law on ``bounds`` (NaN for None)."""
+    if bounds is None:
+        return np.full(len(p), np.nan)
+    lo, hi = np.log(np.asarray(bounds, dtype=float).reshape(2, -1)[:, 0])
+    return np.exp(lo + np.asarray(p) * (hi - lo))
 
 
 def parameter_names(prior):
@@ -205,6 +222,88 @@ class CalibrationSummaryMixin:
             "robust_97.5%": self.theta_robust_interval_[:, 1],
         }
         return columns
+
+    def discrepancy_prior_summary(self):
+        """The discrepancy and noise prior in the user's units, with the fit.
+
+        The prior of module 2 is stated in the simulations' standardised
+        units (``discrepancy_prior``); this table says what it means for
+        these data. Rows: ``length_scale[<input>]`` per design variable (the
+        distance over which the discrepancy's correlation falls to
+        ``exp(-1/2)``, ``1 / sqrt(2 roughness)`` of the Gauss kernel times
+        the input's scale ``X_scale_``; NaN for another kernel),
+        ``sd[<response>]`` (the discrepancy's sd) and ``noise_sd[<response>]``
+        per response. Columns: ``prior_2.5%`` and ``prior_97.5%`` (with
+        ``discrepancy_uncertainty="plug-in"``: the ends of its range),
+        ``fitted`` (module 2's mode, as ``discrepancy_kernel_``,
+        ``discrepancy_sigma2_`` and ``noise_``) and, for scale,
+        ``field_spread``: the range of the field inputs, the sd of the
+        field responses. Read more in the User Guide ("What the
+        discrepancy prior means in your units").
+
+        Returns
+        -------
+        pandas.DataFrame or numpy structured array
+            Indexed by ``quantity``.
+        """
+        check_is_fitted(self, "theta_mean_")
+        X = np.asarray(self.X_obs_, dtype=float)
+        Y = np.asarray(self.y_obs_, dtype=float).reshape(len(X), -1)
+        d, q = X.shape[1], Y.shape[1]
+        lengths, sds, noise = self._prior_quantiles(d, q)
+        kernel = self.discrepancy_kernel_
+        fitted_length = (
+            self.X_scale_ / np.sqrt(2.0 * np.asarray(kernel.roughness, float))
+            if isinstance(kernel, Gauss)
+            else np.full(d, np.nan)
+        )
+        inputs = self._data_names("feature_names_in_", "x", d)
+        responses = self._data_names("response_names_", "y", q)
+        rows = [f"length_scale[{n}]" for n in inputs]
+        rows += [f"sd[{n}]" for n in responses] + [f"noise_sd[{n}]" for n in responses]
+        spread_y = np.nanstd(Y, axis=0)
+        columns = np.vstack(
+            [
+                np.column_stack(
+                    [lengths, np.broadcast_to(fitted_length, d), np.ptp(X, 0)]
+                ),
+                np.column_stack(
+                    [sds, np.sqrt(np.diag(self.discrepancy_sigma2_)), spread_y]
+                ),
+                np.column_stack([noise, np.sqrt(self.noise_), spread_y]),
+            ]
+        )
+        return table("quantity", rows, dict(zip(PRIOR_COLUMNS, columns.T, strict=True)))
+
+    def _prior_quantiles(self, d, q):
+        """The prior's 2.5 % and 97.5 % points (plug-in: its range) in user
+        units: length scales (d, 2), discrepancy sds (q, 2), noise sds (q, 2)."""
+        if self.discrepancy_uncertainty == "propagate":
+            prior = Hyperprior.from_spec(self.discrepancy_prior)
+            roughness = _log_uniform_quantiles(prior.roughness)[::-1]
+            sd = stats.halfnorm.ppf([[0.025, 0.975]]) * prior.scales(q)[:, None]
+            noise = np.sqrt(_log_uniform_quantiles(prior.noise))[None, :]
+        else:
+            ranges = check_discrepancy_ranges(self.discrepancy_prior, d, q)
+            rough = ranges["roughness"]
+            roughness = (
+                np.full((d, 2), np.nan)
+                if rough is None
+                else np.column_stack(np.broadcast_arrays(rough[1], rough[0]))
+            )
+            var = ranges["variance"]
+            sd = (
+                np.full((q, 2), np.nan)
+                if var is None
+                else np.sqrt(np.column_stack(np.broadcast_arrays(*var)))
+            )
+            noise = np.full((q, 2), np.nan)
+        lengths = self.X_scale_[:, None] / np.sqrt(2.0 * np.atleast_2d(roughness))
+        return (
+            np.broadcast_to(lengths, (d, 2)),
+            sd * self.y_scale_[:, None],
+            noise * self.y_scale_[:, None],
+        )
 
     def _mcse(self, r):
         """The rows of ``theta_mcse_`` (NaN for a fit from before it)."""

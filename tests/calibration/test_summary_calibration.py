@@ -310,3 +310,83 @@ def test_unknown_prior_forms_are_still_numbered():
     from skmba.priors._theta import check_prior
 
     assert parameter_names(check_prior(prior)) == ["theta0", "theta1"]
+
+
+@pytest.fixture(scope="module")
+def freq_fit():
+    from validation.cases import case_freq
+
+    case = case_freq(0)
+    cal = ModularBayesCalibrator(prior=case.prior, random_state=0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        cal.fit(case.X, case.y, X_sim=case.X_sim, theta_sim=case.theta_sim,
+                y_sim=case.y_sim)  # fmt: skip
+    return cal
+
+
+def test_discrepancy_prior_in_user_units(freq_fit):
+    # Known answers from the documented default prior (roughness log-uniform
+    # on (0.1, 9), sd half-normal of scale 0.5, noise variance log-uniform on
+    # (1e-6, 1), all in the simulations' standardised units), converted with
+    # the fitted scales.
+    cal = freq_fit
+    tab = cal.discrepancy_prior_summary()
+    assert tuple(tab.columns) == ("prior_2.5%", "prior_97.5%", "fitted", "field_spread")
+    rough = stats.loguniform(0.1, 9.0).ppf([0.975, 0.025])
+    np.testing.assert_allclose(
+        tab.loc["length_scale[x0]", ["prior_2.5%", "prior_97.5%"]],
+        cal.X_scale_[0] / np.sqrt(2.0 * rough),
+        rtol=1e-12,
+    )
+    np.testing.assert_allclose(
+        tab.loc["sd[y0]", ["prior_2.5%", "prior_97.5%"]],
+        stats.halfnorm(scale=0.5 * cal.y_scale_[0]).ppf([0.025, 0.975]),
+        rtol=1e-12,
+    )
+    np.testing.assert_allclose(
+        tab.loc["noise_sd[y0]", ["prior_2.5%", "prior_97.5%"]],
+        np.sqrt(stats.loguniform(1e-6, 1.0).ppf([0.025, 0.975])) * cal.y_scale_[0],
+        rtol=1e-12,
+    )
+    roughness = cal.discrepancy_kernel_.roughness
+    assert tab.loc["length_scale[x0]", "fitted"] == pytest.approx(
+        cal.X_scale_[0] / np.sqrt(2.0 * roughness)
+    )
+    assert tab.loc["sd[y0]", "fitted"] == pytest.approx(
+        np.sqrt(cal.discrepancy_sigma2_[0, 0])
+    )
+    assert tab.loc["noise_sd[y0]", "fitted"] == pytest.approx(np.sqrt(cal.noise_[0]))
+    assert tab.loc["length_scale[x0]", "field_spread"] == pytest.approx(
+        np.ptp(cal.X_obs_)
+    )
+
+
+def test_discrepancy_prior_moves_with_the_simulation_design():
+    # The prior lives in the simulations' units: the same field data with
+    # simulations over twice the load range double its length scales in the
+    # user's units (the issue-30 finding that the table makes visible).
+    data = make_cantilever(40, 10, random_state=0)
+    lo, hi = data.X_sim.min(), data.X_sim.max()
+    X_wide = lo + (data.X_sim - lo) * (2 * hi - lo) / (hi - lo)  # up to 2 hi
+    wide = Bunch(
+        X_sim=X_wide,
+        theta_sim=data.theta_sim,
+        y_sim=data.simulator(X_wide, data.theta_sim),
+    )
+    tables = []
+    for sims in (data, wide):
+        cal = ModularBayesCalibrator(prior=data.prior, random_state=0,
+                                     discrepancy_uncertainty="plug-in")  # fmt: skip
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            cal.fit(data.X_obs, data.y_obs, X_sim=sims.X_sim,
+                    theta_sim=sims.theta_sim, y_sim=sims.y_sim)  # fmt: skip
+        tables.append((cal.discrepancy_prior_summary(), cal.X_scale_[0]))
+    (narrow, s0), (broad, s1) = tables
+    ratio = (
+        broad.loc["length_scale[x0]", "prior_2.5%"]
+        / narrow.loc["length_scale[x0]", "prior_2.5%"]
+    )
+    assert ratio == pytest.approx(s1 / s0, rel=1e-12) and 1.7 < ratio < 2.3
+    assert np.isnan(broad.loc["noise_sd[y0]", "prior_2.5%"])  # plug-in: no range
