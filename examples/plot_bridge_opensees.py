@@ -31,8 +31,12 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from skmba import ModularBayesCalibrator
-from skmba.datasets import BridgeModel, OpenSeesBridgeModel, make_bridge_monitoring
-from skmba.datasets._bridge_model import youngs_modulus_at
+from skmba.datasets import (
+    BridgeModel,
+    OpenSeesBridgeModel,
+    make_bridge_monitoring,
+    youngs_modulus_at,
+)
 
 X = np.array([[20.0], [-5.0], [10.0]])
 theta = np.array([[35e9, 3e9], [30e9, 1e9], [40e9, np.inf]])

@@ -24,7 +24,7 @@ Examples
 (24, 4)
 """
 
-from skmba.datasets._bridge_model import BridgeModel, BridgeReality
+from skmba.datasets._bridge_model import BridgeModel, BridgeReality, youngs_modulus_at
 from skmba.datasets._bridge_monitoring import make_bridge_monitoring
 from skmba.datasets._bridge_opensees import OpenSeesBridgeModel
 from skmba.datasets._cantilever import make_cantilever
@@ -40,4 +40,5 @@ __all__ = [
     "make_bridge_monitoring",
     "make_cantilever",
     "make_truss_bridge",
+    "youngs_modulus_at",
 ]
