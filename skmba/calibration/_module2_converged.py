@@ -176,10 +176,11 @@ class _Evaluator:
     def __init__(self, base, space, scaler):
         self.base, self.space, self.scaler = base, space, scaler
 
-    def mixture(self, V, log_weights=None):
+    def mixture(self, V):
         components = [self.space.component(v) for v in V]
-        weights = np.zeros(len(V)) if log_weights is None else log_weights
-        draws = HyperposteriorDraws(None, components, weights, None, None, None)
+        draws = HyperposteriorDraws(
+            None, components, np.zeros(len(V)), None, None, None
+        )
         return ModelMixture(self.base, draws)
 
     def __call__(self, V, nodes):
@@ -286,8 +287,6 @@ class ConvergedIntegral:
         Module 4's pairs: a theta (user units, (s, 1)) and the index of the
         draw of ``phi`` with it, drawn from their joint posterior.
     rule_weights : ndarray of shape (s,)
-    marginal_weights : ndarray of shape (K,)
-        The posterior probability of each draw of ``phi``.
     """
 
     draws: HyperposteriorDraws
@@ -296,7 +295,6 @@ class ConvergedIntegral:
     rule_thetas: np.ndarray
     rule_draws: np.ndarray
     rule_weights: np.ndarray
-    marginal_weights: np.ndarray
 
 
 def _density_cdf(w, grid):
@@ -404,7 +402,7 @@ def _result(module2, space, draws, grid, proposal, errors, n_samples, seeds):
         samples, grid.nodes[:, None], w, (grid.nodes[0], grid.nodes[-1])
     )
     rule = _rule_pairs(A, grid, seeds[1])
-    return hyper, posterior, rule, marginal
+    return hyper, posterior, rule
 
 
 def _block_errors(draws, grid):
@@ -475,7 +473,7 @@ def converge(
         if relative <= tol or n_blocks * N_BLOCK >= MAX_DRAWS:
             break
         n_blocks = _grown(n_blocks, relative, tol)
-    hyper, posterior, rule, marginal = _result(
+    hyper, posterior, rule = _result(
         module2,
         space,
         draws,
@@ -500,4 +498,4 @@ def converge(
             "come from: check the discrepancy prior and the field data.",
             UserWarning,
         )
-    return ConvergedIntegral(hyper, posterior, error, *rule, marginal)
+    return ConvergedIntegral(hyper, posterior, error, *rule)
