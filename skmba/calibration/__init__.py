@@ -11,9 +11,16 @@ file                               holds
 ``_estimator.py``                  :class:`ModularBayesCalibrator`
 ``_settings.py``                   its parameter table and the frozen
                                    settings built from ``get_params()``
-``_pipeline.py``                   modules 1-3 run in order
+``_fit_setup.py``                  what ``fit`` settles first: the size
+                                   warning, module 2's prior, the
+                                   simulations
+``_pipeline.py``                   modules 1-3 run in order (and again,
+                                   warm, by ``partial_fit``)
 ``_field_data.py``                 checks of the field data, alone and
                                    against the simulations
+``_field_replicates.py``           readings at one input as their mean and
+                                   count (``bin_width``), the batches of
+                                   ``partial_fit``
 ``_simulations.py``                the simulation runs
 ``_module1_emulator.py``           module 1: the emulator, standardisation
 ``_module2_prior_integral.py``     module 2: the emulator integrated over

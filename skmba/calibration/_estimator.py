@@ -23,11 +23,10 @@ import numpy as np
 from sklearn.base import BaseEstimator, MultiOutputMixin, RegressorMixin
 from sklearn.utils.validation import (
     check_consistent_length,
-    check_is_fitted,
     validate_data,
 )
 
-from skmba._core.columns import column_names, match_columns
+from skmba._core.columns import column_names
 from skmba._core.progress import Progress
 from skmba._core.threads import blas_threads
 from skmba._core.validation import int_seed, seed_sequence, validate_parameter_table
@@ -39,38 +38,47 @@ from skmba.calibration._field_data import (
     checked_field_y,
     field_order,
     measured_field_data,
-    measured_r2,
     named_simulations,
     pandas_index,
     prior_names,
     row_labels,
+    simulation_tables,
     warn_few_distinct_inputs,
 )
-from skmba.calibration._module2_prior_integral import one_parameter_rule
+from skmba.calibration._field_replicates import (
+    FieldReadings,
+    appended_readings,
+    check_bin_width,
+)
+from skmba.calibration._fit_setup import (
+    module2_prior,
+    prior_and_simulations,
+    warn_field_size,
+)
 from skmba.calibration._module3_identifiability import warn_if_confounded
+from skmba.calibration._module3_posterior import PosteriorDensityMixin
 from skmba.calibration._module4_prediction import CalibratedPredictionMixin
 from skmba.calibration._pipeline import (
     OPTIONAL_FITTED,
+    WarmStart,
     fitted_attributes,
-    module2_prior,
     run_modules,
-    simulations_for,
-    warn_field_size,
 )
 from skmba.calibration._settings import PARAMETER_TABLE, CalibrationSettings
 from skmba.calibration._simulations import (
-    Simulations,
-    check_failed_runs,
-    check_not_sliced,
-    checked_prior,
-    given_simulations,
     kept_simulator_runs,
 )
-from skmba.calibration._summary import CalibrationSummaryMixin, parameter_names
+from skmba.calibration._summary import (
+    CalibrationSummaryMixin,
+    history_row,
+    history_table,
+    parameter_names,
+)
 
 
 class ModularBayesCalibrator(
     CalibratedPredictionMixin,
+    PosteriorDensityMixin,
     CalibrationSummaryMixin,
     MultiOutputMixin,
     RegressorMixin,
@@ -182,6 +190,12 @@ class ModularBayesCalibrator(
         Nugget of the emulator's correlation matrix, at the simulations and
         at the field inputs of the module-3 likelihood alike (the model term
         of the global covariance is ``Sigma2_m ⊗ (R + alpha I)``).
+    bin_width : float or array-like of shape (d,), default=None
+        Readings repeated at the same inputs always enter modules 2-4 as
+        their mean and count (exact). A width (units of ``X``, e.g. 0.5 °C)
+        also averages readings whose inputs fall in one bin ``floor(x / w)``
+        at their mean input, an approximation that bounds the cost of a
+        year of monitoring (User Guide, "Monitoring over time").
     verbose : int, default=0
         Progress on standard error, prefixed ``[ModularBayesCalibrator]``:
         0 prints nothing; 1 shows progress bars (simulator runs, emulator
@@ -254,7 +268,13 @@ class ModularBayesCalibrator(
     X_obs_, y_obs_ : ndarray
         The field data of ``fit`` (for :meth:`to_inference_data`), without
         the rows that had no measured response; NaN where a reading was not
-        taken.
+        taken. After :meth:`partial_fit`, every batch's.
+    theta_history_ : pandas.DataFrame or numpy structured array
+        The posterior after each :meth:`fit` or :meth:`partial_fit`, one row
+        per call indexed by the label of its last reading (``until``: a
+        timestamp for a time-indexed ``y``): ``n_readings``, ``n_means``
+        (distinct inputs or bins) and ``<parameter>_mean``, ``_sd``,
+        ``_2.5%``, ``_97.5%``.
     theta_nodes_, theta_weights_ : ndarray
         The posterior quadrature (only with quadrature).
     prior_ : prior object
@@ -336,6 +356,7 @@ class ModularBayesCalibrator(
         discrepancy_prior=None,
         discrepancy_tol=None,
         emulator_alpha=1e-8,
+        bin_width=None,
         verbose=0,
     ):
         self.simulator = simulator
@@ -361,6 +382,7 @@ class ModularBayesCalibrator(
         self.discrepancy_prior = discrepancy_prior
         self.discrepancy_tol = discrepancy_tol
         self.emulator_alpha = emulator_alpha
+        self.bin_width = bin_width
         self.verbose = verbose
 
     # -------------------------------------------------------------- fit
@@ -410,47 +432,79 @@ class ModularBayesCalibrator(
             ``identifiability_``).
         UserWarning
             Rows of ``y`` without any reading (left out); failed simulation
-            runs (their count and errors); observation
-            inputs outside the range of the simulations; more
-            than 2 % of the prior mass outside the simulated range of theta;
-            poor MCMC diagnostics (R-hat, effective sample size).
+            runs (their count and errors); observation inputs outside the
+            range of the simulations; more than 2 % of the prior mass outside
+            the simulated range of theta; poor MCMC diagnostics.
         """
-        # BLAS threads by the package's policy (skmba._core.threads): the field
-        # block (n q) decides for modules 2-4 in this process; the emulator's
-        # fit and the simulation block take threads by their own size, and
-        # joblib tasks their share of the cores.
-        if simulations is None:
-            check_not_sliced(X, X_sim)
-        else:
-            if not isinstance(simulations, Simulations):
-                raise TypeError(
-                    "simulations must be a skmba.calibration.Simulations(X_sim, "
-                    f"theta_sim, y_sim), got {type(simulations).__name__}."
-                )
-            if any(a is not None for a in (X_sim, theta_sim, y_sim)):
-                raise ValueError(
-                    "Pass the simulations either as simulations=Simulations(...) "
-                    "or as X_sim, theta_sim and y_sim, not both."
-                )
-            X_sim, theta_sim, y_sim = (
-                simulations.X_sim,
-                simulations.theta_sim,
-                simulations.y_sim,
+        self._history = []
+        tables = simulation_tables(X, X_sim, theta_sim, y_sim, simulations)
+        return self._run(X, y, tables, warm=None)
+
+    def partial_fit(
+        self, X, y, *, X_sim=None, theta_sim=None, y_sim=None, simulations=None
+    ):
+        """Add a batch of field readings of the same structure and update.
+
+        The first call is :meth:`fit`; each later one appends the batch to
+        the readings so far, keeps module 1 (simulations, emulator) and runs
+        modules 2-3 on all the readings, started where the last update ended.
+        Their cost grows with the distinct inputs (``bin_width``), not the
+        readings; the result is :meth:`fit`'s on all the batches up to
+        module 3's Monte Carlo error. ``theta_history_`` records each call.
+
+        Parameters
+        ----------
+        X : array-like or DataFrame of shape (n, d)
+            The batch's field inputs; a table needs the first batch's columns.
+        y : array-like or DataFrame of shape (n,) or (n, q)
+            The batch's readings (NaN: not taken); a table needs the first
+            batch's columns, in any order. Its row labels (e.g. timestamps)
+            label the update in ``theta_history_``.
+        X_sim, theta_sim, y_sim, simulations : optional
+            The simulations, as in :meth:`fit`; on the first call only.
+
+        Returns
+        -------
+        self
+
+        Raises
+        ------
+        ValueError
+            Simulations after the first call; other columns than the first's.
+        """
+        sims = dict(X_sim=X_sim, theta_sim=theta_sim, y_sim=y_sim)
+        if not hasattr(self, "_modules"):
+            return self.fit(X, y, **sims, simulations=simulations)
+        if any(a is not None for a in (*sims.values(), simulations)):
+            raise ValueError(
+                "partial_fit keeps the simulations and the emulator of its first "
+                "call: pass simulations to the first call only, or call fit to "
+                "start again with other simulations."
             )
+        check_same_index(X, y)
+        validate_data(self, X, reset=False, skip_check_array=True)  # names, width
+        X, y = appended_readings(self._readings_log, X, y)
+        return self._run(X, y, (None,) * 3, warm=self._modules)
+
+    def _run(self, X, y, tables, warm):
+        """Modules 1-3 on the readings ``X``, ``y`` (module 1 from ``warm``,
+        an earlier result, when given); sets the fitted attributes. BLAS
+        threads by the package's policy (:mod:`skmba._core.threads`)."""
         partial = {}
         try:
             with blas_threads(field_order(y)):
-                fitted = self._fit(X, y, X_sim, theta_sim, y_sim, partial)
+                fitted = self._fit(X, y, *tables, partial, warm)
         except Exception as exc:
             kept = kept_simulator_runs(partial.get("simulations"), exc)
             for name, value in kept.items():
                 setattr(self, name, value)
             raise
+        self._readings_log = (X, y)
         self._set_fitted(**fitted)
         warn_if_confounded(self.identifiability_, self.parameter_names_)
         return self
 
-    def _fit(self, X, y, X_sim, theta_sim, y_sim, partial):
+    def _fit(self, X, y, X_sim, theta_sim, y_sim, partial, warm):
         """Modules 1-3; returns what :meth:`_set_fitted` stores."""
         validate_parameter_table(
             self._parameter_table, self.get_params(deep=False), type(self).__name__
@@ -459,36 +513,38 @@ class ModularBayesCalibrator(
         X, Y, y_ndim, responses, tables, rows = self._field_data(
             X, y, X_sim, theta_sim, y_sim
         )
-        warn_field_size(int(np.isfinite(Y).sum()), len(Y), settings)
+        width = check_bin_width(settings.bin_width, X.shape[1])
+        readings = FieldReadings.from_readings(X, Y, width)
+        warn_field_size(int(np.isfinite(readings.Y).sum()), len(Y), settings)
         # Before any simulation runs: a bad range must not waste them.
         module2_spec = module2_prior(settings, X, Y.shape[1])
         # One child of the seed per random step: the simulation design, then
         # modules 1, 2a, 2b and 3.
         seeds = [int_seed(c) for c in seed_sequence(self.random_state).spawn(7)]
-        given = given_simulations(X, Y.shape[1], *tables)
-        prior = checked_prior(self.prior, given, names=column_names(tables[1]))
-        for name, other in (("integration", "qmc"), ("sampler", "mcmc")):
-            one_parameter_rule(name, getattr(self, name), prior.dim, several=other)
         progress = Progress(self.verbose, "ModularBayesCalibrator")
-        sims = simulations_for(
-            settings, X, Y.shape[1], prior, given, seeds[0], progress, responses
-        )
-        partial["simulations"] = sims
-        check_failed_runs(sims, self.regression, X.shape[1] + prior.dim)
-        if sims.theta.shape[1] != prior.dim:
-            raise ValueError(
-                f"theta_sim has {sims.theta.shape[1]} columns but the prior has "
-                f"{prior.dim} parameters."
+        if warm is None:
+            named = (responses, tables)
+            prior, sims = prior_and_simulations(
+                settings, self.prior, X, Y.shape[1], named, seeds[0], progress
             )
+            partial["simulations"] = sims
+        else:
+            prior, sims = warm.prior, warm.sims
         check_simulation_design(
             X, prior, sims, getattr(self, "feature_names_in_", None)
         )
         check_responses(X, Y, sims.X, sims.y, responses, rows)
         result = run_modules(
-            settings, X, Y, sims, prior, module2_spec, seeds[1:], progress
+            settings, readings, sims, prior, module2_spec, seeds[1:], progress, warm
         )
         return dict(
-            X=X, Y=Y, y_ndim=y_ndim, responses=responses, sims=sims, result=result
+            X=X,
+            Y=Y,
+            y_ndim=y_ndim,
+            responses=responses,
+            sims=sims,
+            result=result,
+            update=(rows[-1], readings),
         )
 
     def _field_data(self, X, y, X_sim, theta_sim, y_sim):
@@ -499,8 +555,7 @@ class ModularBayesCalibrator(
         index = pandas_index(y)
         features, responses = column_names(X), column_names(y)
         X = validate_data(self, X)
-        # NaN in y is a reading not taken; scikit-learn's y check rejects it.
-        y = checked_field_y(y)
+        y = checked_field_y(y)  # NaN allowed: a reading not taken
         labels = row_labels(index, len(y))
         check_consistent_length(X, y)
         # Tables of simulations are matched to the field data and the prior
@@ -522,12 +577,11 @@ class ModularBayesCalibrator(
         warn_few_distinct_inputs(X, self.discrepancy_regression)
         return X, Y, np.ndim(y), responses, tables, labels[kept]
 
-    def _set_fitted(self, X, Y, y_ndim, responses, sims, result):
+    def _set_fitted(self, X, Y, y_ndim, responses, sims, result, update):
         """Every fitted attribute, in one place."""
         for name in OPTIONAL_FITTED:
             self.__dict__.pop(name, None)
-        prior = result.inputs.prior
-        self.prior_ = prior
+        prior = self.prior_ = result.inputs.prior
         self.parameter_names_ = parameter_names(prior)
         self.response_names_ = responses
         self.X_obs_, self.y_obs_ = X, Y[:, 0] if y_ndim == 1 else Y
@@ -535,63 +589,9 @@ class ModularBayesCalibrator(
         self.simulation_failures_ = list(sims.failures)
         for name, value in fitted_attributes(result, prior).items():
             setattr(self, name, value)
-        # What the predictions and log_posterior need.
-        self._y_ndim = y_ndim
-        self._scaler = result.inputs.scaler
+        self._y_ndim, self._scaler = y_ndim, result.inputs.scaler
         self._log_posterior = result.module3.log_post
         self._prediction_rule = result.module3.rule
-
-    # -------------------------------------------------- module 3 and 4
-    def log_posterior(self, theta):
-        """Module-3 log posterior of ``theta`` (user units), up to a constant.
-
-        ``log p(theta) + log p(Y | theta, D, phi)`` with the regression
-        coefficients integrated out (Eq. 4.30); ``-inf`` outside the prior's
-        support or where the global covariance cannot be factored.
-
-        Parameters
-        ----------
-        theta : array-like of shape (r,) or (m, r)
-            A DataFrame's columns are matched to ``parameter_names_`` when
-            the prior named them (a dict prior), else taken in order.
-
-        Returns
-        -------
-        float or ndarray of shape (m,)
-        """
-        check_is_fitted(self, "theta_mean_")
-        # A table is matched by name when the prior named the parameters.
-        named = getattr(self.prior_, "names", None)
-        theta = match_columns(theta, named, "theta", "the parameter names")
-        theta = np.asarray(theta, dtype=float)
-        single = theta.ndim == 1
-        theta = np.atleast_2d(theta)
-        if theta.shape[1] != self.prior_.dim:
-            raise ValueError(
-                f"theta has {theta.shape[1]} values per row; the prior has "
-                f"{self.prior_.dim} parameters."
-            )
-        out = np.array([self._log_posterior(t) for t in theta])
-        return float(out[0]) if single else out
-
-    def score(self, X, y, sample_weight=None):
-        """R² of :meth:`predict` on ``y``, over the measured entries.
-
-        scikit-learn's ``r2_score`` averaged uniformly over the responses;
-        NaN in ``y`` (readings not taken) are left out response by response,
-        so that field data with gaps can be scored.
-
-        Parameters
-        ----------
-        X : array-like of shape (s, d)
-        y : array-like of shape (s,) or (s, q)
-        sample_weight : array-like of shape (s,), default=None
-
-        Returns
-        -------
-        float
-        """
-        check_same_index(X, y)
-        y = checked_field_y(y)
-        pred = np.asarray(self.predict(X), dtype=float).reshape(len(y), -1)
-        return measured_r2(y.reshape(len(y), -1), pred, sample_weight)
+        self._modules = WarmStart.of(result)  # for partial_fit
+        self._history.append(history_row(*update, result.module3.posterior))
+        self.theta_history_ = history_table(self._history, self.parameter_names_)

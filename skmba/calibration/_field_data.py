@@ -7,6 +7,7 @@ against the simulations and the prior.
   (:func:`measured_field_data`); NaN in ``X`` and inf anywhere are errors;
 - where tables meet: simulation tables matched to the field data and the
   prior by name (:func:`named_simulations`);
+- ``fit``'s two forms of the simulations (:func:`simulation_tables`);
 - against the simulations: each response on both sides (units, sign, a
   stuck sensor, logger codes; :func:`check_responses`), field inputs
   outside the simulated region and a prior the simulations miss
@@ -31,7 +32,13 @@ from sklearn.utils import check_array
 from skmba._core.columns import match_columns
 from skmba._core.regression import n_regression_terms
 from skmba._core.warn import warn
-from skmba.calibration._simulations import as_array, check_2d, check_finite_rows
+from skmba.calibration._simulations import (
+    Simulations,
+    as_array,
+    check_2d,
+    check_finite_rows,
+    check_not_sliced,
+)
 from skmba.exceptions import FieldDataWarning
 
 
@@ -543,3 +550,29 @@ def named_simulations(X_sim, theta_sim, y_sim, *, features, parameters, response
         match_columns(theta_sim, parameters, "theta_sim", "the keys of prior"),
         match_columns(y_sim, responses, "y_sim", "the columns of y"),
     )
+
+
+def simulation_tables(X, X_sim, theta_sim, y_sim, simulations):
+    """``fit``'s simulations as ``(X_sim, theta_sim, y_sim)``, from the three
+    tables or one :class:`~skmba.calibration._simulations.Simulations`.
+
+    Raises
+    ------
+    ValueError, TypeError
+        Both forms at once, another type than ``Simulations``, or tables
+        that scikit-learn's cross-validation has sliced.
+    """
+    if simulations is None:
+        check_not_sliced(X, X_sim)
+        return X_sim, theta_sim, y_sim
+    if not isinstance(simulations, Simulations):
+        raise TypeError(
+            "simulations must be a skmba.calibration.Simulations(X_sim, "
+            f"theta_sim, y_sim), got {type(simulations).__name__}."
+        )
+    if any(a is not None for a in (X_sim, theta_sim, y_sim)):
+        raise ValueError(
+            "Pass the simulations either as simulations=Simulations(...) "
+            "or as X_sim, theta_sim and y_sim, not both."
+        )
+    return simulations.X_sim, simulations.theta_sim, simulations.y_sim

@@ -55,6 +55,7 @@ from skmba._core.progress import as_progress, start_reporter
 from skmba._core.regression import regression_basis
 from skmba._core.validation import seed_sequence
 from skmba._core.warn import warn
+from skmba.calibration._field_replicates import noise_covariance
 from skmba.gp._estimator import default_kernel
 
 DISCREPANCY_OPTIMIZERS = ("fmin_l_bfgs_b", "differential_evolution")
@@ -172,6 +173,9 @@ class DiscrepancyFit:
     free_sd : bool, default=False
         No bounds on the log discrepancy standard deviations (a prior
         bounds them instead).
+    replicates : ReplicateTerms, default=None
+        Rows of ``Y`` that are means of repeated readings: see
+        :class:`~skmba.calibration._field_replicates.ReplicateTerms`.
 
     Examples
     --------
@@ -199,8 +203,10 @@ class DiscrepancyFit:
         fixed_noise=None,
         log_noise_bounds=None,
         free_sd=False,
+        replicates=None,
     ):
         self.kernel, self.X, self.Y, self.H, self.V_fixed = kernel, X, Y, H, V_fixed
+        self.replicates = replicates
         self.regression = regression
         self.restricted = restricted
         self.n, self.q = Y.shape
@@ -283,7 +289,8 @@ class DiscrepancyFit:
         else:
             R, dR = k(self.X), None
         sigma2 = L @ L.T + np.diag(self.floor)
-        V = self.V_fixed + np.kron(sigma2, R) + np.kron(np.diag(lam), np.eye(n))
+        reps = self.replicates
+        V = self.V_fixed + np.kron(sigma2, R) + noise_covariance(lam, n, reps)
         obs = self.observed
         C = cholesky(
             observed_block(V, obs),
@@ -301,6 +308,9 @@ class DiscrepancyFit:
         ll = -0.5 * (m * LOG_2PI + log_det_from_cholesky(C) + rw @ rw)
         if self.restricted:
             ll -= 0.5 * (2.0 * np.sum(np.log(np.abs(np.diag(G)))) - len(G) * LOG_2PI)
+        if reps is not None:
+            factor, g_factor = reps.log_factor(lam, eval_gradient=True)
+            ll += factor
         self.last = (k, sigma2, lam, beta.reshape(q, -1).T)
         if not eval_gradient:
             return ll
@@ -327,7 +337,11 @@ class DiscrepancyFit:
         sd = np.exp(params[self.n_kernel + q : self.n_kernel + 2 * q]) * self.scale
         g_U = g_L * sd[:, None]
         g_W = (g_U - np.einsum("ij,ij->i", g_U, U)[:, None] * U) / norms[:, None]
-        g_lam = 0.5 * np.einsum("aiai->a", K) * lam
+        if reps is None:
+            g_lam = 0.5 * np.einsum("aiai->a", K) * lam
+        else:  # d V / d log lam_a = diag(lam_a / counts) on block a
+            per_mean = reps.noise_diagonal(lam).reshape(q, n)
+            g_lam = 0.5 * np.einsum("aiai,ai->a", K, per_mean) + g_factor
         return ll, np.concatenate(
             [g_kernel, g_lam, g_log_sd, g_W[self.rows, self.cols]]
         )
@@ -510,6 +524,7 @@ def fit_discrepancy(
     max_iter=None,
     responses=None,
     progress=None,
+    replicates=None,
 ):
     """Module 2b (Eq. 4.19): discrepancy GP and noise by maximum likelihood.
 
@@ -545,6 +560,8 @@ def fit_discrepancy(
     progress : skmba._core.progress.Progress, default=None
         A bar of the optimiser's starts and, as detail lines, the
         log-likelihood each reaches; None is silent.
+    replicates : ReplicateTerms, default=None
+        As :class:`DiscrepancyFit`'s.
 
     Returns
     -------
@@ -568,6 +585,7 @@ def fit_discrepancy(
         variance,
         regression=regression,
         fixed_noise=None if noise else 1e-10,
+        replicates=replicates,
     )
     progress = as_progress(progress)
     n_starts = 1 if optimizer == "differential_evolution" else n_restarts + 1

@@ -317,7 +317,9 @@ def _noise_posterior_mean(coords, mode, cov, seed):
     return w @ noise, float(1.0 / np.sum(w**2))
 
 
-def _posterior_coordinates(X_e, residual, V_fixed, prior, kernel, regression, noise):
+def _posterior_coordinates(
+    X_e, residual, V_fixed, prior, kernel, regression, noise, replicates=None
+):
     """The restricted likelihood of module 2 under ``prior``, in the
     unbounded coordinates of :class:`_Coordinates`."""
     kernel_d = discrepancy_kernel(kernel, X_e)
@@ -340,6 +342,7 @@ def _posterior_coordinates(X_e, residual, V_fixed, prior, kernel, regression, no
         fixed_noise=None if noise else 1e-10,
         log_noise_bounds=np.log(prior.noise) if noise else None,
         free_sd=True,
+        replicates=replicates,
     )
     return _Coordinates(fit, prior)
 
@@ -393,11 +396,12 @@ class HyperparameterCoordinates:
         kernel=None,
         regression="constant",
         noise=True,
+        replicates=None,
     ):
         """The coordinates of :func:`fit_hyperposterior` for its arguments."""
         return cls(
             _posterior_coordinates(
-                X_e, residual, V_fixed, prior, kernel, regression, noise
+                X_e, residual, V_fixed, prior, kernel, regression, noise, replicates
             )
         )
 
@@ -420,14 +424,15 @@ class HyperparameterCoordinates:
         return self.coordinates.coordinates_of(component)
 
 
-def _posterior_mode(coords, n_restarts, noise, seed, progress):
+def _posterior_mode(coords, n_restarts, noise, seed, progress, start=None):
     """The mode of the module-2 posterior: L-BFGS-B from the default start
-    and ``n_restarts`` random ones (kernel and noise uniform in their
-    bounds); the best ``scipy.optimize`` result."""
+    (or ``start``, coordinates of an earlier mode) and ``n_restarts`` random
+    ones (kernel and noise uniform in their bounds); the best
+    ``scipy.optimize`` result."""
     fit, k, q = coords.fit, coords.k, coords.q
     rng = np.random.default_rng(seed)
     p0 = fit.start()
-    starts = [coords.to_v(p0)]
+    starts = [coords.to_v(p0) if start is None else np.asarray(start, float)]
     for _ in range(n_restarts):
         p = p0.copy()
         p[:k] = rng.uniform(coords.lo[:k], coords.hi[:k])
@@ -466,6 +471,8 @@ def fit_hyperposterior(
     random_state=None,
     progress=None,
     noise_mean=True,
+    replicates=None,
+    start=None,
 ):
     """Module 2b with its uncertainty: mode, Laplace and draws of ``phi``.
 
@@ -495,16 +502,22 @@ def fit_hyperposterior(
         Estimate the noise variances' posterior mean (what predictions of
         new observations add); False skips it (``noise_mean`` and
         ``noise_ess`` are then None), for a pass that does not predict.
+    replicates : ReplicateTerms, default=None
+        The rows of ``residual`` are means of repeated readings
+        (:class:`~skmba.calibration._field_replicates.ReplicateTerms`).
+    start : ndarray, default=None
+        Coordinates (``HyperposteriorDraws.mode_coordinates``) of an earlier
+        mode to start the search at (an update with more readings).
 
     Returns
     -------
     HyperposteriorDraws
     """
     coords = _posterior_coordinates(
-        X_e, residual, V_fixed, prior, kernel, regression, noise
+        X_e, residual, V_fixed, prior, kernel, regression, noise, replicates
     )
     mode_seed, draw_seed, noise_seed = seed_sequence(random_state).spawn(3)
-    best = _posterior_mode(coords, n_restarts, noise, mode_seed, progress)
+    best = _posterior_mode(coords, n_restarts, noise, mode_seed, progress, start)
     fit = coords.fit
     mode = fit.estimate(coords.to_p(best.x)[0])
     cov = _laplace_cov(coords, best.x)

@@ -41,6 +41,7 @@ from scipy import linalg, stats
 from skmba._core.linalg import observed_block, observed_rows
 from skmba._core.regression import regression_basis
 from skmba._core.warn import warn
+from skmba.calibration._field_replicates import noise_covariance
 from skmba.exceptions import NonIdentifiabilityWarning
 
 #: ``fit`` warns for a parameter whose ``identifiability_`` is below this:
@@ -154,7 +155,7 @@ def identifiability(model, theta, hyperprior):
     J = ((means[:r] - means[r : 2 * r]) / (2 * _STEP)).transpose(2, 1, 0)
     J = J.reshape(q * n, r)  # response-slowest, as vec(Y)
     T = cond.correlation(model.nugget)[-1]
-    V0 = np.kron(model.sigma2_m, T) + np.kron(np.diag(model.noise), np.eye(n))
+    V0 = np.kron(model.sigma2_m, T) + noise_covariance(model.noise, n, model.replicates)
     sd = np.sqrt(np.clip(np.diag(model.sigma2_d), 1e-300, None))
     corr = model.sigma2_d / np.outer(sd, sd)
     big = hyperprior.sd_quantile(PROBE_LEVEL, q)

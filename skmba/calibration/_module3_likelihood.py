@@ -43,6 +43,7 @@ from skmba._core.linalg import (
     stacked_whitening,
 )
 from skmba._core.regression import regression_basis
+from skmba.calibration._field_replicates import noise_covariance
 
 #: The message of a rank-deficient global regression matrix.
 RANK_DEFICIENT = (
@@ -145,6 +146,10 @@ def regression_log_likelihoods(log_det_S, W, top, rss_top_perp, log_det_A, n_dat
         When the regression is rank deficient at some ``k``.
     """
     P = W.shape[2] - 1
+    short = P + 1 - top.shape[0] - W.shape[1]
+    if short > 0:  # no more rows than coefficients (readings at one input):
+        # zero rows leave the factor as it is and give it its last row.
+        W = np.concatenate([W, np.zeros((len(W), short, P + 1))], axis=1)
     stacked = np.concatenate([np.broadcast_to(top, (len(W), *top.shape)), W], axis=1)
     R = np.linalg.qr(stacked, mode="r")
     diag = np.abs(np.diagonal(R[:, :P, :P], axis1=1, axis2=2))
@@ -233,6 +238,11 @@ class GlobalModel:
     discrepancy : DiscrepancyFit
         The fitted module-2 discrepancy (``kernel_``, ``regression``,
         ``sigma2``, ``noise``).
+    replicates : ReplicateTerms, default=None
+        When the rows of ``Y_e`` are means of repeated readings
+        (:class:`~skmba.calibration._field_replicates.ReplicateTerms`): their
+        noise is divided by the counts and the likelihood carries the
+        readings' factor, so that it equals the likelihood of the readings.
 
     Examples
     --------
@@ -240,8 +250,9 @@ class GlobalModel:
     log-likelihood against the dense Eq. 4.30.
     """
 
-    def __init__(self, emulator, X_e, Y_e, discrepancy):
+    def __init__(self, emulator, X_e, Y_e, discrepancy, replicates=None):
         self.emulator = emulator
+        self.replicates = replicates
         self.X_m, self.Y_m, self.X_e, self.Y_e = emulator.Z, emulator.Y, X_e, Y_e
         self.nugget = float(emulator.nugget)
         self.kernel_m, self.regression_m = emulator.kernel, emulator.regression
@@ -286,14 +297,21 @@ class GlobalModel:
         # What a new observation adds to the reality (module 4): the plugged
         # noise here; a ModelMixture holds its posterior mean.
         self.predictive_noise = self.noise
+        reps = self.replicates
         self.S_fixed = observed_block(
             np.kron(self.sigma2_d, self.kernel_d(self.X_e))
-            + np.kron(np.diag(self.noise), np.eye(self.n)),
+            + noise_covariance(self.noise, self.n, reps),
             self.observed,
         )
         # The other terms of S(theta) are positive semi-definite: the
         # smallest noise variance bounds its smallest eigenvalue.
-        self.noise_floor = float(np.min(self.noise))
+        self.noise_floor = (
+            float(np.min(self.noise))
+            if reps is None
+            else reps.smallest_noise(self.noise)
+        )
+        # The repeated readings' factor (a function of the noise alone).
+        self.replicate_factor = 0.0 if reps is None else reps.log_factor(self.noise)
         self._cache = None
 
     def with_discrepancy(self, discrepancy):
@@ -415,7 +433,9 @@ class GlobalModel:
         It includes every constant, ``(2 pi)^-(M - P)/2 |V_Y|^-1/2
         |H_Y' V_Y^-1 H_Y|^-1/2 exp(-rss/2)`` with ``M = N q + m`` data (``m``
         measured field entries, ``n q`` without gaps) and ``P`` regression
-        coefficients, so that it equals the dense formula.
+        coefficients, so that it equals the dense formula; with means of
+        repeated readings, times their factor, so that it equals the
+        formula over the readings.
 
         Raises
         ------
@@ -448,4 +468,4 @@ class GlobalModel:
             out[chunk] = self.stacked_log_likelihoods(
                 self.S_fixed + terms, self.field_rows(cond)
             )
-        return out
+        return out + self.replicate_factor if self.replicates is not None else out

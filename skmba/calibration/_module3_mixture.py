@@ -146,6 +146,8 @@ class ModelMixture:
         if self._S_fixed is None:
             self._S_fixed = np.stack([mdl.S_fixed for mdl in self.models])
             self._noise_floor = min(mdl.noise_floor for mdl in self.models)
+            # Each draw's factor of repeated readings (zeros without them).
+            self._factors = np.array([mdl.replicate_factor for mdl in self.models])
         K, m = self._S_fixed.shape[:2]
         per_theta = K if labels is None else 1
         out = np.empty((len(thetas), per_theta))
@@ -163,8 +165,8 @@ class ModelMixture:
             values = base.stacked_log_likelihoods(S, Z, self._noise_floor)
             out[chunk] = values.reshape(B, per_theta)
         if labels is None:
-            return self.log_weights + out
-        return self.log_weights[labels] + out[:, 0]
+            return self.log_weights + self._factors + out
+        return self.log_weights[labels] + self._factors[labels] + out[:, 0]
 
     def log_likelihood(self, theta):
         """``log sum_k w_k p(data | theta, phi_k)``."""

@@ -37,6 +37,11 @@ from skmba._core.linalg import (
 from skmba._core.regression import regression_basis
 from skmba._core.threads import BlasTask
 from skmba._core.validation import seed_sequence
+from skmba.calibration._field_data import (
+    check_same_index,
+    checked_field_y,
+    measured_r2,
+)
 
 COMPONENTS = ("model", "discrepancy", "reality", "observation")
 _N_PREDICT_DRAWS = 200  # posterior draws used by the predictions (MCMC)
@@ -351,3 +356,25 @@ class CalibratedPredictionMixin:
         :meth:`predict_reality` in the mean.
         """
         return self._predict_component(X, "discrepancy", return_std)
+
+    def score(self, X, y, sample_weight=None):
+        """R² of :meth:`predict` on ``y``, over the measured entries.
+
+        scikit-learn's ``r2_score`` averaged uniformly over the responses;
+        NaN in ``y`` (readings not taken) are left out response by response,
+        so that field data with gaps can be scored.
+
+        Parameters
+        ----------
+        X : array-like of shape (s, d)
+        y : array-like of shape (s,) or (s, q)
+        sample_weight : array-like of shape (s,), default=None
+
+        Returns
+        -------
+        float
+        """
+        check_same_index(X, y)
+        y = checked_field_y(y)
+        pred = np.asarray(self.predict(X), dtype=float).reshape(len(y), -1)
+        return measured_r2(y.reshape(len(y), -1), pred, sample_weight)

@@ -35,14 +35,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from skmba._core.linalg import FEWER_FIELD_DATA, FLOAT_BYTES, check_memory, n_workers
-from skmba._core.progress import duration_text
 from skmba._core.regression import n_regression_terms
 from skmba._core.warn import warn
 from skmba.calibration._module1_emulator import Standardizer, fit_emulator
 from skmba.calibration._module2_converged import MAX_DRAWS, converge
 from skmba.calibration._module2_plug_in import fit_discrepancy
 from skmba.calibration._module2_posterior import (
-    N_HYPER_DRAWS,
     HyperposteriorDraws,
     fit_hyperposterior,
     propagated_module2,
@@ -61,10 +59,8 @@ from skmba.calibration._module3_posterior import (
     posterior_by_quadrature,
 )
 from skmba.calibration._module4_prediction import PredictionRule, prediction_rule
-from skmba.calibration._simulations import check_design_size, collect_simulations
-from skmba.kernels import check_correlation
 from skmba.priors._hyperprior import Hyperprior
-from skmba.priors._table_6_2 import check_discrepancy_ranges, ranges_text
+from skmba.priors._table_6_2 import ranges_text
 
 #: Fitted attributes that only one posterior method sets.
 OPTIONAL_FITTED = (
@@ -88,7 +84,12 @@ class ModuleInputs:
     """What modules 2 and 3 share once module 1 is done.
 
     ``Xs`` and ``Ys`` are the field data in the standardised units of
-    ``scaler`` (the simulations' spread).
+    ``scaler`` (the simulations' spread): the means of the readings at
+    their distinct inputs, with ``replicates`` (a
+    :class:`~skmba.calibration._field_replicates.ReplicateTerms`) when some
+    mean holds several readings. ``warm``: the :class:`WarmStart` of an
+    earlier fit of the same calibration on fewer readings, whose module-2
+    mode and module-3 draws start this one's searches (``partial_fit``).
     """
 
     settings: object
@@ -99,6 +100,8 @@ class ModuleInputs:
     Xs: np.ndarray
     Ys: np.ndarray
     progress: object
+    replicates: object = None
+    warm: object = None
 
 
 @dataclass(frozen=True)
@@ -124,34 +127,27 @@ class ModulesResult:
     identifiability: object
 
 
-#: Measured field values (entries of y) above which ``fit`` warns about its
-#: cost before it starts.
-FIELD_VALUES_WARNING = 500
-#: The reference of the time estimate: the cantilever's defaults with 200
-#: measured values (100 readings of 2 responses) took 12.4 s on two cores
-#: (50 values: 1.1 s, 100: 2.8 s); the time grows as the cube beyond.
-REFERENCE_FIELD_FIT = (200, 12.4)
+@dataclass(frozen=True)
+class WarmStart:
+    """What an update with more readings takes from the last fit
+    (``partial_fit``): the prior, the simulations and module 1, kept; the
+    module-2 draws and module-3 posterior, to start from. No settings (the
+    simulator need not outlive ``fit``) and no earlier warm start."""
 
+    prior: object
+    sims: object
+    scaler: Standardizer
+    emulator: object
+    module2: HyperposteriorDraws
+    module3: Module3Result
 
-def warn_field_size(n_values, n_readings, settings):
-    """Warn before a fit whose ``n_values`` measured field values (of
-    ``n_readings`` rows) make modules 2-3 long: their ``m x m``
-    factorisations, ``m = n_values``, cost ``m^3``, thousands of them."""
-    if n_values <= FIELD_VALUES_WARNING:
-        return
-    seconds = REFERENCE_FIELD_FIT[1] * (n_values / REFERENCE_FIELD_FIT[0]) ** 3
-    draws = N_HYPER_DRAWS if settings.propagate else 1
-    gib = FLOAT_BYTES * 6 * draws * n_values**2 / 2**30  # as check_global_memory
-    warn(
-        f"{n_readings} field readings hold {n_values} measured values: modules "
-        f"2-3 factor {n_values} x {n_values} matrices thousands of times, at a "
-        f"cost growing as the cube of that number (200 values take about "
-        f"{REFERENCE_FIELD_FIT[1]:.0f} s on two cores): expect of the order "
-        f"of {duration_text(seconds)} and {gib:.1f} GiB. Average the readings "
-        "repeated at the same inputs (as many in each mean), bin close "
-        "inputs, or subsample the readings before fitting.",
-        UserWarning,
-    )
+    @classmethod
+    def of(cls, result):
+        """The warm start of a :class:`ModulesResult`."""
+        i = result.inputs
+        return cls(
+            i.prior, i.sims, i.scaler, i.emulator, result.module2, result.module3
+        )
 
 
 def check_global_memory(N, n, q, P, jobs, draws=1):
@@ -175,55 +171,8 @@ def check_global_memory(N, n, q, P, jobs, draws=1):
     )
 
 
-def module2_prior(settings, X, q):
-    """The module-2 prior of the settings: a Hyperprior, or plug-in ranges.
-
-    Checked before any simulation runs, with the discrepancy kernel: it must
-    be a correlation (unit diagonal on the field inputs ``X``). Under the
-    plug-in, a kernel without a ``roughness`` (a scikit-learn kernel) keeps
-    its own bounds unless a roughness range is given explicitly.
-    """
-    kernel = settings.discrepancy.kernel
-    if kernel is not None:
-        check_correlation(kernel, X, name="discrepancy_kernel")
-    if settings.propagate:
-        prior = Hyperprior.from_spec(settings.discrepancy_prior)
-        prior.scales(q)  # one sd_scale per response, or one for all
-        return prior
-    ranges = check_discrepancy_ranges(settings.discrepancy_prior, X.shape[1], q)
-    given = settings.discrepancy_prior or {}
-    if (
-        "roughness" not in given
-        and kernel is not None
-        and "roughness" not in kernel.get_params()
-    ):
-        ranges["roughness"] = None
-    return ranges
-
-
-def simulations_for(settings, X, q, prior, given, seed, progress, names=None):
-    """The given runs and the simulator's runs (Latin hypercube); a table
-    output of the simulator is matched to the responses ``names``."""
-    k = X.shape[1] + prior.dim
-    simulator = settings.simulator
-    n_runs = (settings.n_simulations or 10 * k) if simulator is not None else 0
-    check_design_size(
-        n_runs + (0 if given is None else len(given.X)),
-        settings.emulator.regression,
-        k,
-    )
-    return collect_simulations(
-        simulator, X, q, prior, given, n_runs, seed, progress, names
-    )
-
-
-def run_modules(settings, X, Y, sims, prior, module2_spec, seeds, progress):
-    """Modules 1-3: a :class:`ModulesResult`.
-
-    ``module2_spec`` is :func:`module2_prior`'s result; ``seeds`` the six
-    seeds of module 1, the prior integral, module 2 (first pass), module 3
-    (first pass), and the second passes of modules 2 and 3.
-    """
+def _module1(settings, sims, seed, progress):
+    """Module 1: the standardisation and the emulator of the simulations."""
     started = time.perf_counter()
     scaler = Standardizer.from_simulations(sims.X, sims.theta, sims.y)
     emulator = fit_emulator(
@@ -232,27 +181,62 @@ def run_modules(settings, X, Y, sims, prior, module2_spec, seeds, progress):
         sims.theta,
         sims.y,
         **settings.emulator.kwargs(),
-        random_state=seeds[0],
+        random_state=seed,
         progress=progress,
     )
     progress.info(
         f"module 1 done in {time.perf_counter() - started:.1f} s: emulator of "
         f"{len(sims.X)} simulations, {emulator.Z.shape[1]} inputs, "
-        f"{Y.shape[1]} response(s)"
+        f"{sims.y.shape[1]} response(s)"
     )
+    return scaler, emulator
+
+
+def run_modules(
+    settings, readings, sims, prior, module2_spec, seeds, progress, warm=None
+):
+    """Modules 1-3: a :class:`ModulesResult`.
+
+    ``readings`` is the field data as a
+    :class:`~skmba.calibration._field_replicates.FieldReadings`;
+    ``module2_spec`` is :func:`module2_prior`'s result; ``seeds`` the six
+    seeds of module 1, the prior integral, module 2 (first pass), module 3
+    (first pass), and the second passes of modules 2 and 3. ``warm``, the
+    :class:`WarmStart` of an earlier fit on part of the readings, lends its
+    module 1 (emulator and standardisation) and starts modules 2 and 3
+    where it ended.
+    """
+    if warm is None:
+        scaler, emulator = _module1(settings, sims, seeds[0], progress)
+    else:
+        scaler, emulator = warm.scaler, warm.emulator
     inputs = ModuleInputs(
-        settings, prior, sims, scaler, emulator, scaler.x(X), scaler.y(Y), progress
+        settings,
+        prior,
+        sims,
+        scaler,
+        emulator,
+        scaler.x(readings.X),
+        scaler.y(readings.Y),
+        progress,
+        readings.terms(scaler.y_scale),
+        warm,
     )
     started = time.perf_counter()
-    integrated = integrate_over_prior(
-        emulator,
-        scaler,
-        prior,
-        inputs.Xs,
-        **settings.integration.kwargs(),
-        random_state=seeds[1],
-    )
-    if isinstance(module2_spec, Hyperprior):
+    propagate = isinstance(module2_spec, Hyperprior)
+    # The emulator over the prior: module 2's first pass (not run in an
+    # update, which starts from the last posterior) and the plug-in.
+    integrated = None
+    if warm is None or not propagate:
+        integrated = integrate_over_prior(
+            emulator,
+            scaler,
+            prior,
+            inputs.Xs,
+            **settings.integration.kwargs(),
+            random_state=seeds[1],
+        )
+    if propagate:
         module2, module3 = _propagated(inputs, integrated, module2_spec, seeds)
         hyperprior = module2_spec
     else:
@@ -264,7 +248,8 @@ def run_modules(settings, X, Y, sims, prior, module2_spec, seeds, progress):
                 UserWarning,
             )
         module2 = _plug_in(inputs, integrated, module2_spec, seeds[2], started)
-        module3 = fit_module3(inputs, module2, seeds[3])
+        earlier = None if inputs.warm is None else inputs.warm.module3.posterior
+        module3 = fit_module3(inputs, module2, seeds[3], earlier=earlier)
         hyperprior = Hyperprior()
     probe = identifiability(
         module3.log_post.model.base,
@@ -284,9 +269,25 @@ def _plug_in(inputs, integrated, ranges, seed, started):
         ranges=ranges,
         random_state=seed,
         progress=inputs.progress,
+        replicates=inputs.replicates,
+        start=None if inputs.warm is None else _warm_plug_in(inputs.warm),
     )
     _say_module2(inputs, started, disc, f"plug-in, range {ranges_text(ranges)}")
     return HyperposteriorDraws.plug_in(disc)
+
+
+def _warm_plug_in(warm):
+    """``fit_discrepancy``'s start at an earlier fit's estimate."""
+    est = warm.module2.mode
+
+    def start(fit):
+        try:
+            L = np.linalg.cholesky(est.sigma2 - np.diag(fit.floor))
+        except np.linalg.LinAlgError:  # at a variance floor: the usual start
+            return fit.start()
+        return fit.pack(est.kernel_.theta, np.asarray(est.noise, float), L)
+
+    return start
 
 
 def _propagated(inputs, integrated, hyperprior, seeds):
@@ -309,15 +310,23 @@ def _propagated(inputs, integrated, hyperprior, seeds):
         )
 
     converged = _tolerance_applies(inputs)
-    draws, first = propagated_module2(
-        integrated,
-        first_pass=lambda i: _draws(inputs, i, hyperprior, seeds[2], "1st pass", False),
-        posterior=first_posterior,
-        integrate=over_posterior,
-        second_pass=lambda i: _draws(
-            inputs, i, hyperprior, seeds[4], "2nd pass", not converged
-        ),
-    )
+
+    def second_pass(integrated, label="2nd pass"):
+        return _draws(inputs, integrated, hyperprior, seeds[4], label, not converged)
+
+    if inputs.warm is None:
+        draws, first = propagated_module2(
+            integrated,
+            first_pass=lambda i: _draws(
+                inputs, i, hyperprior, seeds[2], "1st pass", False
+            ),
+            posterior=first_posterior,
+            integrate=over_posterior,
+            second_pass=second_pass,
+        )
+    else:  # the last update's posterior tells where this one is: no 1st pass
+        first = inputs.warm.module3
+        draws = second_pass(over_posterior(first), "update, over the last posterior")
     if converged:
         return _converged(inputs, draws, first.posterior, seeds[5])
     return draws, fit_module3(inputs, draws, seeds[5], earlier=first.posterior)
@@ -344,7 +353,9 @@ def _converged(inputs, module2, first, seed):
     converge`), module 3's posterior on its grid and module 4's pairs."""
     started = time.perf_counter()
     settings = inputs.settings
-    base = GlobalModel(inputs.emulator, inputs.Xs, inputs.Ys, module2.mode)
+    base = GlobalModel(
+        inputs.emulator, inputs.Xs, inputs.Ys, module2.mode, inputs.replicates
+    )
     (n, _), q = inputs.Xs.shape, inputs.Ys.shape[1]
     check_global_memory(inputs.emulator.N, n, q, base.P, 1, MAX_DRAWS)
     result = converge(
@@ -382,6 +393,8 @@ def _draws(inputs, integrated, prior, seed, label, predicts=True):
         random_state=seed,
         progress=inputs.progress,
         noise_mean=predicts,
+        replicates=inputs.replicates,
+        start=(None if inputs.warm is None else inputs.warm.module2.mode_coordinates),
     )
     how = f"{label}: posterior mode; {len(draws.components)} draws"
     _say_module2(inputs, started, draws.mode, how)
@@ -415,7 +428,8 @@ def fit_module3(inputs, module2, seed, *, first_pass=False, earlier=None):
     jobs = n_workers(settings.n_jobs) if inputs.prior.dim > 1 else 1
     check_global_memory(emulator.N, n, q, P, jobs, len(module2.components))
     model = ModelMixture(
-        GlobalModel(emulator, inputs.Xs, inputs.Ys, module2.mode), module2
+        GlobalModel(emulator, inputs.Xs, inputs.Ys, module2.mode, inputs.replicates),
+        module2,
     )
     log_post = LogPosterior(inputs.prior, model, inputs.scaler, inputs.sims.theta)
     posterior = _posterior(inputs, log_post, seed, first_pass, earlier)

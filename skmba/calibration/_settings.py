@@ -79,6 +79,7 @@ PARAMETER_TABLE = {
         )
     ],
     "emulator_alpha": [Real(minimum=0, hint="the emulator's nugget, e.g. 1e-8")],
+    "bin_width": "no_validation",  # check_bin_width, in fit (one per input)
     "verbose": [Count(minimum=0)],
 }
 
@@ -147,13 +148,16 @@ class CalibrationSettings:
     verbose : int
     discrepancy_uncertainty : {"propagate", "plug-in"}
     discrepancy_prior : dict or None
-        As given; :func:`~skmba.calibration._pipeline.module2_prior` checks
+        As given; :func:`~skmba.calibration._fit_setup.module2_prior` checks
         it against the data.
     discrepancy_tol : float or None
         Monte Carlo tolerance of the integral over module 2's
         hyperparameters, in posterior sds of theta; None: module 2's 16
         draws.
     n_jobs : int or None
+    bin_width : float, ndarray or None
+        As given; :func:`~skmba.calibration._field_replicates.check_bin_width`
+        checks it against the field inputs.
     emulator, integration, discrepancy, sampler
         The settings of each module.
     """
@@ -165,6 +169,7 @@ class CalibrationSettings:
     discrepancy_prior: dict | None
     discrepancy_tol: float | None
     n_jobs: int | None
+    bin_width: object
     emulator: EmulatorSettings
     integration: IntegrationSettings
     discrepancy: DiscrepancySettings
@@ -182,6 +187,7 @@ class CalibrationSettings:
             discrepancy_prior=p["discrepancy_prior"],
             discrepancy_tol=p["discrepancy_tol"],
             n_jobs=p["n_jobs"],
+            bin_width=p["bin_width"],
             emulator=EmulatorSettings(
                 kernel=p["model_kernel"],
                 regression=p["regression"],

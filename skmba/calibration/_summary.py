@@ -8,7 +8,9 @@
   ``arviz.from_dict``), from its public fitted attributes;
 * :func:`table`: a pandas ``DataFrame`` when pandas is installed, a numpy
   structured array otherwise (the same columns; the row labels become a
-  first field).
+  first field);
+* :func:`history_row`, :func:`history_table`: the calibrator's
+  ``theta_history_``, the posterior after each ``partial_fit``.
 
 Examples
 --------
@@ -105,6 +107,46 @@ def table(index_name, index, columns):
     for name, values in columns.items():
         table[name] = values
     return table
+
+
+#: The statistics of each parameter in ``theta_history_``, column suffixes.
+HISTORY_STATISTICS = ("mean", "sd", "2.5%", "97.5%")
+
+
+def history_row(label, readings, posterior):
+    """One update of ``theta_history_``: the label of its last reading, the
+    readings behind it (a :class:`~skmba.calibration._field_replicates.
+    FieldReadings`) and the posterior of theta after it (``samples``,
+    ``mean``, ``cov``, user units)."""
+    samples = posterior.samples
+    return {
+        "label": label,
+        "n_readings": readings.n_readings,
+        "n_means": len(readings.X),
+        "statistics": np.vstack(
+            [
+                posterior.mean,
+                np.sqrt(np.diag(posterior.cov)),
+                np.quantile(samples, 0.025, axis=0),
+                np.quantile(samples, 0.975, axis=0),
+            ]
+        ),
+    }
+
+
+def history_table(rows, names):
+    """``theta_history_``: one row per update (:func:`history_row`), indexed
+    by its last reading's label (``until``): the readings and distinct
+    inputs (``n_means``) so far, and ``<name>_<statistic>`` per parameter."""
+    columns = {
+        "n_readings": np.array([row["n_readings"] for row in rows]),
+        "n_means": np.array([row["n_means"] for row in rows]),
+    }
+    stats_ = np.stack([row["statistics"] for row in rows])  # (updates, 4, r)
+    for j, name in enumerate(names):
+        for i, statistic in enumerate(HISTORY_STATISTICS):
+            columns[f"{name}_{statistic}"] = stats_[:, i, j]
+    return table("until", [row["label"] for row in rows], columns)
 
 
 # ------------------------------------------------------------- calibrator

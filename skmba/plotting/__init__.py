@@ -5,8 +5,9 @@ prediction bands of a :class:`~skmba.MultiResponseGP`, the model,
 discrepancy and observation components of a calibrated
 :class:`~skmba.ModularBayesCalibrator` (thesis Figs. 4.14, 5.9), posteriors
 of the calibration parameters against their prior and the truth (Figs.
-4.13, 4.22, 4.33), MCMC traces (Fig. 4.21), and the criteria of a
-preposterior sensor design (Figs. 6.3, 6.5, 6.7).
+4.13, 4.22, 4.33), MCMC traces (Fig. 4.21), the posterior over the updates
+of a monitored structure, and the criteria of a preposterior sensor design
+(Figs. 6.3, 6.5, 6.7).
 
 matplotlib is an optional dependency (``pip install skmba[plot]``); it is
 imported when a function is called, not when :mod:`skmba` is imported.
@@ -46,6 +47,7 @@ Examples
 
 from skmba.plotting._bands import plot_gp_prediction
 from skmba.plotting._components import plot_calibrated_components
+from skmba.plotting._history import plot_theta_history
 from skmba.plotting._posterior import plot_posterior
 from skmba.plotting._sensor_design import (
     plot_convergence,
@@ -61,5 +63,6 @@ __all__ = [
     "plot_criterion_vs_bias",
     "plot_gp_prediction",
     "plot_posterior",
+    "plot_theta_history",
     "plot_traces",
 ]

@@ -257,7 +257,20 @@ def test_a_large_field_data_set_warns_before_the_fit_starts():
             )
     (message,) = [str(r.message) for r in w if "measured values" in str(r.message)]
     assert re.search(r"expect of the order of [\d.]+ h and [\d.]+ GiB", message)
-    assert "Average the readings repeated at the same inputs" in message
+    assert "Average close inputs with bin_width" in message
+    # Readings repeated at the same inputs count once: 2000 readings at 100
+    # loads are 200 values, which warn of nothing.
+    X_repeated = np.repeat(X[::20], 20, axis=0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)
+        with pytest.raises(ValueError, match="same number of rows"):
+            cal.fit(
+                X_repeated,
+                y,
+                X_sim=DATA.X_sim,
+                theta_sim=DATA.theta_sim[:5],
+                y_sim=DATA.y_sim,
+            )
     # 500 values or fewer: no such warning
     with warnings.catch_warnings():
         warnings.simplefilter("error", UserWarning)
