@@ -3,6 +3,8 @@
 import re
 from pathlib import Path
 
+import numpy as np
+
 README = Path(__file__).resolve().parents[1] / "README.md"
 
 
@@ -29,3 +31,10 @@ def test_quick_start_runs():
     assert gp.sigma2_.shape == (2, 2)
     # the comment in the README promises noise close to [1e-4, 2.5e-3]
     assert 0.5e-4 < gp.noise_[0] < 2e-4 and 1.2e-3 < gp.noise_[1] < 5e-3
+    # two weekly updates, recorded in theta_history_: the readings so far
+    # (rows with a measured frequency), fewer distinct 2-degC bins
+    Y = namespace["Y"].to_numpy()
+    kept = np.isfinite(Y).any(axis=1)
+    history = namespace["monitor"].theta_history_
+    assert list(history["n_readings"]) == [kept[:168].sum(), kept[:336].sum()]
+    assert np.all(history["n_means"] < 30)

@@ -113,6 +113,7 @@ def test_public_names():
         "plot_criterion_vs_bias",
         "plot_gp_prediction",
         "plot_posterior",
+        "plot_theta_history",
         "plot_traces",
     ]
     for name in skmba.plotting.__all__:
