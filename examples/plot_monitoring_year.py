@@ -56,8 +56,11 @@ cal = ModularBayesCalibrator(
 # chains unmixed (the later updates start from its draws and mix; their
 # R-hat is printed), and the temperature alone cannot tell the deck's
 # modulus E from the bearings and the discrepancy (each shifts every
-# frequency). Each update checks all the readings so far again and repeats
-# its warnings (among them the hours lost to outages); they are not printed.
+# frequency). Each update reports its own hours without any reading, and
+# checks all the readings so far against the simulations again, which
+# repeats the identifiability warning and the spread check's (the higher
+# frequencies' readings look narrow next to simulations that span the whole
+# prior, a false alarm here); they are not printed.
 
 months = log.index.month
 for month in range(1, 13):

@@ -510,8 +510,10 @@ class ModularBayesCalibrator(
             self._parameter_table, self.get_params(deep=False), type(self).__name__
         )
         settings = CalibrationSettings.from_params(self.get_params(deep=False))
+        # An update's earlier rows were checked by their own call.
+        reported = 0 if warm is None else len(self._readings_log[0])
         X, Y, y_ndim, responses, tables, rows = self._field_data(
-            X, y, X_sim, theta_sim, y_sim
+            X, y, (X_sim, theta_sim, y_sim), reported
         )
         width = check_bin_width(settings.bin_width, X.shape[1])
         readings = FieldReadings.from_readings(X, Y, width)
@@ -547,9 +549,10 @@ class ModularBayesCalibrator(
             update=(rows[-1], readings),
         )
 
-    def _field_data(self, X, y, X_sim, theta_sim, y_sim):
-        """The field data checked (the measured rows, C order), the labels
-        of those rows, and the simulation tables matched to them by name."""
+    def _field_data(self, X, y, simulations, reported):
+        """The field data checked (the measured rows, C order; rows before
+        ``reported`` without a warning), the labels of those rows, and the
+        simulation tables matched to them by name."""
         check_field_data(X, y, self.discrepancy_regression)
         check_same_index(X, y)
         index = pandas_index(y)
@@ -561,9 +564,7 @@ class ModularBayesCalibrator(
         # Tables of simulations are matched to the field data and the prior
         # by their column labels (arrays by position).
         tables = named_simulations(
-            X_sim,
-            theta_sim,
-            y_sim,
+            *simulations,
             features=features,
             parameters=prior_names(self.prior),
             responses=responses,
@@ -573,7 +574,9 @@ class ModularBayesCalibrator(
         X = np.ascontiguousarray(X, dtype=float)
         Y = np.ascontiguousarray(y, dtype=float).reshape(len(X), -1)
         kept = np.isfinite(Y).any(axis=1)
-        X, Y = measured_field_data(X, Y, self.discrepancy_regression, responses)
+        X, Y = measured_field_data(
+            X, Y, self.discrepancy_regression, responses, reported
+        )
         warn_few_distinct_inputs(X, self.discrepancy_regression)
         return X, Y, np.ndim(y), responses, tables, labels[kept]
 

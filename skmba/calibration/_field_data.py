@@ -88,12 +88,13 @@ def check_field_data(X, y, discrepancy_regression):
             )
 
 
-def measured_field_data(X, Y, discrepancy_regression, names=None):
+def measured_field_data(X, Y, discrepancy_regression, names=None, reported=0):
     """The field data without rows where nothing was measured.
 
     NaN in ``Y`` marks an entry that was not measured (a sensor out); the
     modules use the measured entries. A row with no measured response is
-    dropped with a warning; a response measured fewer times than the
+    dropped with a warning (not for the first ``reported`` rows: an earlier
+    batch's, already reported); a response measured fewer times than the
     discrepancy's regression has terms is an error naming it.
 
     Returns
@@ -115,16 +116,15 @@ def measured_field_data(X, Y, discrepancy_regression, names=None):
             "response from y (and from the simulations) or measure it more."
         )
     empty = ~measured.any(axis=1)
-    if empty.any():
-        rows = np.flatnonzero(empty)
+    rows = np.flatnonzero(empty[reported:]) + reported
+    if rows.size:
         warn(
             f"{rows.size} row(s) of y have no measured response (all NaN), rows "
             f"{rows[:10].tolist()}{' ...' if rows.size > 10 else ''}: they are "
             "left out, with their rows of X.",
             UserWarning,
         )
-        X, Y = X[~empty], Y[~empty]
-    return X, Y
+    return X[~empty], Y[~empty]
 
 
 def warn_few_distinct_inputs(X, discrepancy_regression):

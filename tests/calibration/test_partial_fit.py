@@ -117,7 +117,17 @@ def test_bad_batches_are_refused():
         cal.partial_fit(X[200:300], Y[200:300].to_numpy())
     with pytest.raises(ValueError, match="row labels"):
         cal.partial_fit(X[200:300], Y[201:301])
-    # a batch whose columns come in another order is matched by name
-    reordered = Y[200:300][["f4", "f2", "f3", "f1"]]
-    _quiet(cal.partial_fit, X[200:300], reordered)
-    np.testing.assert_array_equal(cal.y_obs_[-100:], Y[200:300].to_numpy())
+    # a batch whose columns come in another order is matched by name; its
+    # hours without any reading are reported, by their row in the record
+    reordered = Y[200:300][["f4", "f2", "f3", "f1"]].copy()
+    reordered.iloc[[5, 6]] = np.nan
+    message = r"2 row\(s\) of y have no measured response .* rows \[205, 206\]"
+    with pytest.warns(UserWarning, match=message):
+        _quiet(cal.partial_fit, X[200:300], reordered)
+    expected = Y[200:300].to_numpy()
+    np.testing.assert_array_equal(cal.y_obs_[-98:], np.delete(expected, [5, 6], 0))
+    # and not again by the next update
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        cal.partial_fit(X[300:400], Y[300:400])
+    assert not [w for w in caught if "no measured response" in str(w.message)]
