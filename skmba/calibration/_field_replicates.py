@@ -205,11 +205,8 @@ class FieldReadings:
             centres = np.column_stack(
                 [np.bincount(group, x, minlength=n_groups) / sizes for x in X.T]
             )
-        columns = [
-            _group_moments(X[np.isfinite(y)], y[np.isfinite(y)], group[np.isfinite(y)],
-                           centres, bin_width is not None)
-            for y in Y.T
-        ]  # fmt: skip
+        trend = bin_width is not None
+        columns = [_group_moments(X, y, group, centres, trend) for y in Y.T]
         means, counts, ss, degrees = (
             np.column_stack(c) for c in zip(*columns, strict=True)
         )
@@ -230,22 +227,26 @@ class FieldReadings:
 
 
 def _group_moments(X, y, group, centres, trend):
-    """Per group of ``centres``: the mean of the readings ``y`` (measured
-    only) with their inputs ``X``, their count, their sum of squares and its
-    degrees of freedom; with ``trend`` (bins), the linear trend in ``X``
-    taken out of the sum and the mean moved to the group's centre."""
+    """Per group of ``centres``: the mean of the measured readings of one
+    response ``y`` (NaN: not measured), their count, their sum of squares and
+    its degrees of freedom; with ``trend`` (bins), the linear trend in the
+    inputs ``X`` taken out of the sum and the mean moved to the group's
+    centre."""
+    measured = np.isfinite(y)
+    X, y, group = X[measured], y[measured], group[measured]
     n_groups, d = centres.shape
     counts = np.bincount(group, minlength=n_groups).astype(float)
     with np.errstate(invalid="ignore", divide="ignore"):
         means = np.bincount(group, y, minlength=n_groups) / counts
-        x_means = np.column_stack(
-            [np.bincount(group, x, minlength=n_groups) / counts for x in X.T]
-        )
     dy = y - means[group]
     ss = np.bincount(group, dy**2, minlength=n_groups)
     degrees = np.maximum(counts - 1.0, 0.0)
     if not trend:
         return means, counts, ss, degrees
+    with np.errstate(invalid="ignore", divide="ignore"):
+        x_means = np.column_stack(
+            [np.bincount(group, x, minlength=n_groups) / counts for x in X.T]
+        )
     dx = X - x_means[group]
     Sxx = np.zeros((n_groups, d, d))
     np.add.at(Sxx, group, dx[:, :, None] * dx[:, None, :])
