@@ -436,7 +436,6 @@ class ModularBayesCalibrator(
             range of the simulations; more than 2 % of the prior mass outside
             the simulated range of theta; poor MCMC diagnostics.
         """
-        self._history = []
         tables = simulation_tables(X, X_sim, theta_sim, y_sim, simulations)
         return self._run(X, y, tables, warm=None)
 
@@ -500,7 +499,7 @@ class ModularBayesCalibrator(
                 setattr(self, name, value)
             raise
         self._readings_log = (X, y)
-        self._set_fitted(**fitted)
+        self._set_fitted(**fitted, continued=warm is not None)
         warn_if_confounded(self.identifiability_, self.parameter_names_)
         return self
 
@@ -580,7 +579,7 @@ class ModularBayesCalibrator(
         warn_few_distinct_inputs(X, self.discrepancy_regression)
         return X, Y, np.ndim(y), responses, tables, labels[kept]
 
-    def _set_fitted(self, X, Y, y_ndim, responses, sims, result, update):
+    def _set_fitted(self, X, Y, y_ndim, responses, sims, result, update, continued):
         """Every fitted attribute, in one place."""
         for name in OPTIONAL_FITTED:
             self.__dict__.pop(name, None)
@@ -596,5 +595,6 @@ class ModularBayesCalibrator(
         self._log_posterior = result.module3.log_post
         self._prediction_rule = result.module3.rule
         self._modules = WarmStart.of(result)  # for partial_fit
-        self._history.append(history_row(*update, result.module3.posterior))
+        earlier = self._history if continued else []  # fit starts the record
+        self._history = [*earlier, history_row(*update, result.module3.posterior)]
         self.theta_history_ = history_table(self._history, self.parameter_names_)

@@ -90,7 +90,10 @@ def test_first_call_is_fit_and_history_labels_each_update():
     row = history.iloc[-1]
     assert row["E_2.5%"] < row["E_mean"] < row["E_97.5%"]
     assert row["E_mean"] == first.theta_mean_[0]
-    # fit starts the record again
+    # a fit that fails leaves the record as it was; one that runs starts it
+    with pytest.raises(ValueError, match="sample"):
+        first.fit(X[:1], Y[:1], **SIMS)
+    assert len(first.theta_history_) == 2 and len(first._history) == 2
     _quiet(first.fit, X[week], Y[week], **SIMS)
     assert len(first.theta_history_) == 1
 
