@@ -8,16 +8,17 @@ Examples
 --------
 >>> import skmba
 >>> sorted(name for name in skmba.__all__ if not name.startswith("_"))
-['ModularBayesCalibrator', 'MultiResponseGP', 'PreposteriorDesigner']
+['ChangeDetector', 'ModularBayesCalibrator', 'MultiResponseGP', 'PreposteriorDesigner']
 """
 
-from skmba.calibration import ModularBayesCalibrator
+from skmba.calibration import ChangeDetector, ModularBayesCalibrator
 from skmba.gp import MultiResponseGP
 from skmba.sensor_design import PreposteriorDesigner
 
 __version__ = "0.1.0.dev0"
 
 __all__ = [
+    "ChangeDetector",
     "ModularBayesCalibrator",
     "MultiResponseGP",
     "PreposteriorDesigner",

@@ -54,8 +54,9 @@ def problem():
     return gp, gm, X_m, Y_m, X_e, Y_e, sigma2_d, noise
 
 
-def _dense_global(problem, theta, component=None, X_star=None):
-    """V_Y, H_Y, Y of Eqs. 4.22-4.29 assembled densely (and module 4)."""
+def _dense_global(problem, theta, component=None, X_star=None, full=False):
+    """V_Y, H_Y, Y of Eqs. 4.22-4.29 assembled densely (and module 4; ``full``:
+    the joint covariance, response-slowest, instead of the variances)."""
     gp, _gm, X_m, Y_m, X_e, Y_e, sigma2_d, noise = problem
     km, kd = gp.kernel_, Gauss(roughness=2.0)
     S_m = gp.likelihood_.sigma2
@@ -123,6 +124,8 @@ def _dense_global(problem, theta, component=None, X_star=None):
     mean = h @ beta + Vs.T @ Vi @ r
     U = h.T - H.T @ Vi @ Vs
     cov = prior - Vs.T @ Vi @ Vs + U.T @ W @ U
+    if full:
+        return mean.reshape(q, s).T, cov
     return mean.reshape(q, s).T, np.diag(cov).reshape(q, s).T
 
 

@@ -38,3 +38,11 @@ def test_quick_start_runs():
     history = namespace["monitor"].theta_history_
     assert list(history["n_readings"]) == [kept[:168].sum(), kept[:336].sum()]
     assert np.all(history["n_means"] < 30)
+    # the change detector: a 10 % loss of one element seen in a week, on the
+    # deck's E (one element of 20: well under 2 % of the effective E)
+    detector = namespace["detector"]
+    damaged = namespace["damaged"]
+    assert detector.predict(damaged.X_obs, damaged.y_obs) == -1
+    report = detector.report(damaged.X_obs, damaged.y_obs)
+    assert report["log10_bf"].idxmax() == "E"
+    assert -0.02 < report.loc["E", "2.5%"] and report.loc["E", "97.5%"] < 0

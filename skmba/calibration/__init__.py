@@ -38,6 +38,10 @@ file                               holds
 ``_module3_identifiability.py``    ``identifiability_`` and its warning
 ``_module4_prediction.py``         module 4: the predictions
 ``_summary.py``                    ``summary`` and ``to_inference_data``
+``_change_detector.py``            :class:`ChangeDetector`: the reference
+                                   state and a batch's decision and report
+``_change_evidence.py``            the evidence of one batch for a change
+                                   (score test, Bayes factors, posterior)
 =================================  ========================================
 
 Examples
@@ -47,7 +51,8 @@ Examples
 'propagate'
 """
 
+from skmba.calibration._change_detector import ChangeDetector
 from skmba.calibration._estimator import ModularBayesCalibrator
 from skmba.calibration._simulations import Simulations
 
-__all__ = ["ModularBayesCalibrator", "Simulations"]
+__all__ = ["ChangeDetector", "ModularBayesCalibrator", "Simulations"]

@@ -136,7 +136,7 @@ def _draw_weights(mixture, thetas, n_jobs=None):
     return np.exp(values - special.logsumexp(values, axis=1, keepdims=True))
 
 
-def conditional_moments(model, theta, X, component, return_var=True):
+def conditional_moments(model, theta, X, component, return_var=True, full=False):
     """Moments at ``X`` (s, d) given ``theta`` (standardised) and all data.
 
     Parameters
@@ -149,12 +149,15 @@ def conditional_moments(model, theta, X, component, return_var=True):
         adds the measurement noise (a new field measurement, Eq. 4.36).
     return_var : bool
         Also return the marginal variances.
+    full : bool
+        Return the joint covariance instead of the variances.
 
     Returns
     -------
     mean : ndarray of shape (s, q)
-    var : ndarray of shape (s, q)
-        Only when ``return_var`` is True.
+    var : ndarray of shape (s, q), or (s q, s q) when ``full``
+        Only when ``return_var`` is True. The joint covariance orders its
+        rows response-slowest (``k s + a`` for response ``k`` at ``X[a]``).
     """
     w = model.whiten(theta)
     q, s = model.q, len(X)
@@ -189,9 +192,27 @@ def conditional_moments(model, theta, X, component, return_var=True):
         return mean
     U = h.T - model.X_top_full.T @ top - w.X_bot.T @ bot  # (P, sq)
     Ut = linalg.solve_triangular(w.G, U, trans="T")
+    if full:
+        cov = _prior_covariance(model, P_s, X, with_model, with_delta, component)
+        cov -= top.T @ top + bot.T @ bot
+        cov += Ut.T @ Ut
+        return mean, 0.5 * (cov + cov.T)
     reduction = np.sum(top**2, axis=0) + np.sum(bot**2, axis=0)
     var = prior_diag.T.ravel() - reduction + np.sum(Ut**2, axis=0)
     return mean, np.clip(var.reshape(q, s).T, 0.0, None)
+
+
+def _prior_covariance(model, P_s, X, with_model, with_delta, component):
+    """The prior covariance (s q, s q) of a component at ``X``, response-slowest."""
+    s, q = len(X), model.q
+    cov = np.zeros((s * q, s * q))
+    if with_model:
+        cov += np.kron(model.sigma2_m, model.kernel_m(P_s))
+    if with_delta:
+        cov += np.kron(model.sigma2_d, model.kernel_d(X))
+    if component == "observation":
+        cov += np.kron(np.diag(model.noise), np.eye(s))
+    return cov
 
 
 def _predict_chunk(models, thetas, Xs, component, return_std):
@@ -287,6 +308,64 @@ def predict_component(model, rule, Xs, component, *, return_std, n_jobs=None):
     return mean, var
 
 
+def _covariance_chunk(models, thetas, weights, Xs, component):
+    """The means of several posterior draws and their covariances' weighted sum."""
+    own, means, total = {}, [], 0.0
+    for model, theta, weight in zip(models, thetas, weights, strict=True):
+        mean, cov = conditional_moments(
+            own.setdefault(id(model), copy.copy(model)), theta, Xs, component, full=True
+        )
+        means.append(mean)
+        total = total + weight * cov
+    return means, total
+
+
+def predict_covariance(model, rule, Xs, component, *, n_jobs=None):
+    """Posterior-averaged mean and joint covariance of a component at ``Xs``.
+
+    As :func:`predict_component`, with the law of total covariance over the
+    rule: ``sum_k w_k (C_k + (m_k - m)(m_k - m)^T)``.
+
+    Returns
+    -------
+    mean : ndarray of shape (s, q)
+    cov : ndarray of shape (s q, s q)
+        Response-slowest (row ``k s + a`` for response ``k`` at ``Xs[a]``).
+    """
+    if component == "observation":
+        mean, cov = predict_covariance(model, rule, Xs, "reality", n_jobs=n_jobs)
+        noise = np.broadcast_to(model.predictive_noise, (model.q,))
+        return mean, cov + np.diag(np.repeat(noise, len(Xs)))
+    thetas, w = rule.thetas, rule.weights
+    if rule.draws is None:
+        models = [model.base] * len(thetas)
+    else:
+        models = [model.models[k] for k in rule.draws]
+    sq = len(Xs) * model.q
+    check_memory(
+        FLOAT_BYTES * (min(n_workers(n_jobs), len(thetas)) * 4 + 2) * sq * sq,
+        f"The joint covariance at {len(Xs)} points",
+        "Ask for it at fewer points per call.",
+    )
+    task = BlasTask(_covariance_chunk, model.n * model.q, n_jobs)
+    with task.held():
+        chunks = Parallel(n_jobs=n_jobs)(
+            delayed(task)(
+                models[i : i + _PREDICT_CHUNK],
+                thetas[i : i + _PREDICT_CHUNK],
+                w[i : i + _PREDICT_CHUNK],
+                Xs,
+                component,
+            )
+            for i in range(0, len(thetas), _PREDICT_CHUNK)
+        )
+    means = np.stack([m for chunk_means, _ in chunks for m in chunk_means])
+    mean = np.tensordot(w, means, axes=1)
+    spread = (means - mean).transpose(0, 2, 1).reshape(len(thetas), sq)
+    cov = sum(c for _, c in chunks) + (spread.T * w) @ spread
+    return mean, cov
+
+
 class CalibratedPredictionMixin:
     """Module 4 as methods of :class:`~skmba.ModularBayesCalibrator`.
 
@@ -296,26 +375,48 @@ class CalibratedPredictionMixin:
     the global model ``global_model_``, the scaler and the module-4 rule.
     """
 
-    def _predict_component(self, X, component, return_std):
+    def _predict_component(self, X, component, return_std, return_cov=False):
         check_is_fitted(self, "theta_mean_")
+        if return_std and return_cov:
+            raise RuntimeError(
+                "At most one of return_std or return_cov can be requested."
+            )
         X = validate_data(self, X, reset=False).astype(float)
         scaler, rule = self._scaler, self._prediction_rule
-        mean, var = predict_component(
-            self.global_model_,
-            PredictionRule(scaler.theta(rule.thetas), rule.weights, rule.draws),
-            scaler.x(X),
-            component,
-            return_std=return_std,
-            n_jobs=self.n_jobs,
-        )
+        rule = PredictionRule(scaler.theta(rule.thetas), rule.weights, rule.draws)
+        if return_cov:
+            mean, cov = predict_covariance(
+                self.global_model_, rule, scaler.x(X), component, n_jobs=self.n_jobs
+            )
+            std = None
+        else:
+            mean, var = predict_component(
+                self.global_model_,
+                rule,
+                scaler.x(X),
+                component,
+                return_std=return_std,
+                n_jobs=self.n_jobs,
+            )
+            std = None if var is None else np.sqrt(var) * scaler.y_scale
         mean = scaler.y_to_user(mean, centred=component != "discrepancy")
-        std = None if var is None else np.sqrt(var) * scaler.y_scale
         if self._y_ndim == 1:
             mean = mean[:, 0]
             std = None if std is None else std[:, 0]
+        if return_cov:
+            return mean, self._user_covariance(cov, len(X))
         return mean if std is None else (mean, std)
 
-    def predict(self, X, return_std=False):
+    def _user_covariance(self, cov, s):
+        """A response-slowest covariance (s q, s q) in user units: (s, q, s, q),
+        or (s, s) for a 1-D ``y``."""
+        scale = np.asarray(self._scaler.y_scale, dtype=float)
+        q = len(scale)
+        cov = cov.reshape(q, s, q, s).transpose(1, 0, 3, 2)
+        cov = cov * scale[None, :, None, None] * scale[None, None, None, :]
+        return cov[:, 0, :, 0] if self._y_ndim == 1 else cov
+
+    def predict(self, X, return_std=False, return_cov=False):
         """Calibrated prediction of a new field measurement (module 4).
 
         The mean and standard deviation of ``y_e(x) = y_m(x, theta) + delta(x)
@@ -327,35 +428,47 @@ class CalibratedPredictionMixin:
         ----------
         X : array-like of shape (s, d)
         return_std : bool, default=False
+        return_cov : bool, default=False
+            Return the joint covariance instead (law of total covariance over
+            the posterior). Its layout is :class:`~skmba.MultiResponseGP`'s:
+            (s, s) for a 1-D ``y``, else (s, q, s, q) with ``cov[a, k, b, l]
+            = Cov(y_k(x_a), y_l(x_b))``. Its size, ``(s q)^2``, is checked
+            against the free memory before it is allocated.
 
         Returns
         -------
         mean : ndarray of shape (s,) or (s, q)
         std : ndarray, same shape (only when ``return_std``)
+        cov : ndarray (only when ``return_cov``)
         """
-        return self._predict_component(X, "observation", return_std)
+        return self._predict_component(X, "observation", return_std, return_cov)
 
-    def predict_reality(self, X, return_std=False):
-        """Prediction of the true process ``y_m(x, theta) + delta(x)`` (no noise)."""
-        return self._predict_component(X, "reality", return_std)
+    def predict_reality(self, X, return_std=False, return_cov=False):
+        """Prediction of the true process ``y_m(x, theta) + delta(x)`` (no noise).
 
-    def predict_model(self, X, return_std=False):
+        ``return_std`` and ``return_cov`` as in :meth:`predict`.
+        """
+        return self._predict_component(X, "reality", return_std, return_cov)
+
+    def predict_model(self, X, return_std=False, return_cov=False):
         """Prediction of the model output ``y_m(x, theta)`` over the posterior.
 
         Conditional on all data (simulations and field data) at each
         ``theta``, then averaged over the posterior (Eqs. 4.33-4.34).
+        ``return_std`` and ``return_cov`` as in :meth:`predict`.
         """
-        return self._predict_component(X, "model", return_std)
+        return self._predict_component(X, "model", return_std, return_cov)
 
-    def predict_discrepancy(self, X, return_std=False):
+    def predict_discrepancy(self, X, return_std=False, return_cov=False):
         """Prediction of the discrepancy ``delta(x)`` over the posterior.
 
         The conditional moments of ``delta`` given all data at each
         ``theta`` (Eqs. 4.42-4.43, with the global model), averaged over the
         posterior. ``predict_model + predict_discrepancy`` equals
-        :meth:`predict_reality` in the mean.
+        :meth:`predict_reality` in the mean. ``return_std`` and
+        ``return_cov`` as in :meth:`predict`.
         """
-        return self._predict_component(X, "discrepancy", return_std)
+        return self._predict_component(X, "discrepancy", return_std, return_cov)
 
     def score(self, X, y, sample_weight=None):
         """R² of :meth:`predict` on ``y``, over the measured entries.

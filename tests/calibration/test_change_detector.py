@@ -1,0 +1,154 @@
+"""ChangeDetector on the monitored bridge: quiet on other weeks of the same
+bridge, alarmed by a stiffness loss that it puts on the deck; reusing a
+fitted calibrator's simulations; bad batches refused with the fix named."""
+
+import warnings
+
+import numpy as np
+import pytest
+from scipy import stats
+from sklearn.exceptions import NotFittedError
+
+from skmba import ChangeDetector, ModularBayesCalibrator
+from skmba.datasets import make_bridge_monitoring
+
+WEEK = 168
+REFERENCE = make_bridge_monitoring(n_hours=24 * 120, random_state=0)
+SIMS = dict(X_sim=REFERENCE.X_sim, theta_sim=REFERENCE.theta_sim, y_sim=REFERENCE.y_sim)
+
+
+def _calibrator():
+    return ModularBayesCalibrator(
+        prior=REFERENCE.prior,
+        discrepancy_uncertainty="plug-in",
+        bin_width=1.0,
+        random_state=0,
+    )
+
+
+def _quiet(call, *args, **kwargs):
+    # E and the bearings are confounded with the discrepancy on a
+    # temperature-only design (the identifiability warning says so).
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return call(*args, **kwargs)
+
+
+@pytest.fixture(scope="module")
+def detector():
+    det = ChangeDetector(_calibrator(), bin_width=0.5)
+    return _quiet(det.fit, REFERENCE.X_obs, REFERENCE.y_obs, **SIMS)
+
+
+def _weeks(data, n):
+    return [
+        (data.X_obs[k * WEEK : (k + 1) * WEEK], data.y_obs[k * WEEK : (k + 1) * WEEK])
+        for k in range(n)
+    ]
+
+
+def test_fitted_attributes(detector):
+    assert detector.parameter_names_ == ["E", "k_bearing"]
+    np.testing.assert_array_equal(
+        detector.theta_reference_, detector.calibrator_.theta_mean_
+    )
+    assert detector.n_features_in_ == 1
+
+
+def test_weeks_of_the_unchanged_bridge_look_like_the_reference(detector):
+    # The same months of another year (other weather and noise): the score
+    # statistics of 8 weeks sum to a chi-squared with 16 degrees of freedom.
+    other = make_bridge_monitoring(n_hours=24 * 120, random_state=1)
+    evidence = [detector.evidence(X, y) for X, y in _weeks(other, 8)]
+    total = sum(ev.statistic for ev in evidence)
+    degrees = sum(ev.degrees for ev in evidence)
+    assert degrees == 16
+    assert stats.chi2.ppf(0.001, degrees) < total < stats.chi2.ppf(0.999, degrees)
+    # The control chart's statistic too, with one degree per measured mean.
+    residual = sum(ev.residual_statistic for ev in evidence)
+    means = sum(ev.n_means for ev in evidence)
+    assert stats.chi2.ppf(0.001, means) < residual < stats.chi2.ppf(0.999, means)
+    misfit = sum(ev.misfit_statistic for ev in evidence)
+    left = means - degrees
+    assert stats.chi2.ppf(0.001, left) < misfit < stats.chi2.ppf(0.999, left)
+
+
+def test_a_stiffness_loss_is_detected_and_put_on_the_deck(detector):
+    damaged = make_bridge_monitoring(
+        n_hours=WEEK, damage_size=0.1, damage_start=0, random_state=2
+    )
+    X, y = damaged.X_obs, damaged.y_obs
+    assert detector.predict(X, y) == -1
+    assert detector.decision_function(X, y) < 0
+    report = detector.report(X, y)
+    assert list(report.columns) == [
+        "mean",
+        "sd",
+        "2.5%",
+        "97.5%",
+        "p_exceeds",
+        "log10_bf",
+    ]
+    e = report.loc["E"]
+    # The deck softened: one element of 20 lost 10 % of its stiffness, which
+    # the model, with one modulus for the whole deck, reads as a loss of
+    # well under 2 % of the deck's effective E.
+    assert e["97.5%"] < 0 and e["2.5%"] > -0.02
+    assert report["log10_bf"].idxmax() == "E"
+    assert 0.0 <= e["p_exceeds"] <= 1.0
+
+
+def test_a_refitted_discrepancy_absorbs_much_of_a_change(detector):
+    # With a discrepancy of its own the current state can explain a
+    # change by it: weaker evidence than with the reference's carried over.
+    damaged = make_bridge_monitoring(
+        n_hours=WEEK, damage_size=0.1, damage_start=0, random_state=2
+    )
+    refit = ChangeDetector(detector.calibrator_, bin_width=0.5, discrepancy="refit")
+    refit = _quiet(refit.fit, REFERENCE.X_obs, REFERENCE.y_obs)
+    carry_T = detector.evidence(damaged.X_obs, damaged.y_obs).statistic
+    refit_T = refit.evidence(damaged.X_obs, damaged.y_obs).statistic
+    assert refit_T < 0.5 * carry_T
+
+
+def test_a_fitted_calibrator_lends_its_simulations(detector):
+    fitted = _quiet(_calibrator().fit, REFERENCE.X_obs, REFERENCE.y_obs, **SIMS)
+    det = _quiet(
+        ChangeDetector(fitted, bin_width=0.5).fit, REFERENCE.X_obs, REFERENCE.y_obs
+    )
+    np.testing.assert_array_equal(det.calibrator_.X_sim_, REFERENCE.X_sim)
+    np.testing.assert_allclose(
+        det.theta_reference_, detector.theta_reference_, rtol=1e-12
+    )
+
+
+def test_bad_use_is_refused_with_the_fix(detector):
+    pytest.importorskip("pandas")
+    X, y = REFERENCE.X_obs[:WEEK], REFERENCE.y_obs[:WEEK]
+    with pytest.raises(NotFittedError):
+        ChangeDetector(_calibrator()).predict(X, y)
+    with pytest.raises(ValueError, match="no finite reading"):
+        detector.predict(X, np.full_like(y, np.nan))
+    with pytest.raises(ValueError, match="responses"):
+        detector.predict(X, y[:, :3])
+    with pytest.raises(ValueError, match="alpha"):
+        ChangeDetector(_calibrator(), alpha=1.5).fit(REFERENCE.X_obs, REFERENCE.y_obs)
+    with pytest.raises(TypeError, match="calibrator"):
+        ChangeDetector("calibrator").fit(REFERENCE.X_obs, REFERENCE.y_obs)
+    with pytest.raises(ValueError, match="discrepancy"):
+        ChangeDetector(_calibrator(), discrepancy="new").fit(X, y)
+    framed = ChangeDetector(_calibrator(), bin_width=0.5)
+    frame = REFERENCE.frame
+    _quiet(framed.fit, frame[["temperature"]], frame[["f1", "f2", "f3", "f4"]], **SIMS)
+    week = frame.iloc[:WEEK]
+    responses = week[["f1", "f2", "f3", "f4"]]
+    with pytest.raises(ValueError, match="lacks"):
+        framed.predict(week[["temperature"]], responses.rename(columns={"f4": "g4"}))
+    with pytest.raises(ValueError, match="feature names"):
+        framed.predict(
+            week[["temperature"]].rename(columns={"temperature": "T"}), responses
+        )
+    # columns in another order are matched by name
+    assert framed.predict(
+        week[["temperature"]], week[["f4", "f3", "f2", "f1"]]
+    ) == framed.predict(week[["temperature"]], week[["f1", "f2", "f3", "f4"]])
