@@ -137,6 +137,15 @@ def build_parser():
         ),
     )
     demo.add_argument(
+        "--monitoring",
+        action="store_true",
+        help=(
+            "run the monitoring case instead: a bridge's hourly frequencies, a "
+            "reference year, then a year judged week by week by ChangeDetector "
+            "(a 5 %% stiffness loss of one element on 1 September)"
+        ),
+    )
+    demo.add_argument(
         "--quick",
         action="store_true",
         help="a few seconds' smoke run with small settings (for tests)",
@@ -556,7 +565,11 @@ def run_demo(out, *, n_simulations=70, n_mc=None, seed=0, n_jobs=-1, quick=False
 def main(argv=None):
     """Entry point of ``python -m skmba``."""
     args = build_parser().parse_args(argv)
-    if args.command == "demo":
+    if args.command == "demo" and args.monitoring:
+        from skmba._demo_monitoring import run_monitoring_demo
+
+        run_monitoring_demo(args.out, seed=args.seed, quick=args.quick, say=_say)
+    elif args.command == "demo":
         if args.n_simulations < 10:
             raise SystemExit("--n-simulations must be at least 10.")
         if args.n_mc is not None and args.n_mc < 1:

@@ -29,10 +29,16 @@ from skmba._core.validation import (
     Callable,
     Options,
     Real,
+    check_count,
     validate_parameter_table,
 )
 from skmba.calibration._change_evidence import change_evidence
-from skmba.calibration._field_data import check_same_index, checked_field_y
+from skmba.calibration._field_data import (
+    check_same_index,
+    checked_field_y,
+    pandas_index,
+    row_labels,
+)
 from skmba.calibration._field_replicates import FieldReadings, check_bin_width
 from skmba.calibration._summary import table
 
@@ -298,6 +304,68 @@ class ChangeDetector(BaseEstimator):
         }
         return table("parameter", np.array(self.parameter_names_), columns)
 
+    def scan(self, X, y, batch_size=168):
+        """The detector over consecutive batches of ``batch_size`` rows.
+
+        For a record of readings in time order (e.g. a year of hourly
+        readings in weeks, ``batch_size=168``), one row per batch: a control
+        chart of the structure. A batch without a finite reading (the logger
+        down) has no row.
+
+        Parameters
+        ----------
+        X, y : array-like or DataFrame
+            As in :meth:`evidence`, rows in time order.
+        batch_size : int, default=168
+            Rows per batch; the last batch may be shorter.
+
+        Returns
+        -------
+        pandas.DataFrame or numpy structured array
+            Indexed by each batch's first row label (``from``; its position
+            without pandas): ``n_readings``, ``p_value``, ``changed``
+            (``p_value < alpha``), ``log10_bf``, ``residual_p_value``,
+            ``misfit_p_value`` (:class:`BatchEvidence`), and per parameter
+            ``<name>_mean``, ``<name>_sd``, ``<name>_2.5%`` and
+            ``<name>_97.5%`` of its relative change, the columns of
+            ``theta_history_``, so that
+            :func:`~skmba.plotting.plot_theta_history` draws them.
+        """
+        check_is_fitted(self, "calibrator_")
+        check_count(batch_size, "batch_size")
+        check_same_index(X, y)
+        labels = row_labels(pandas_index(y), len(y))
+        rows, starts = [], []
+        for start in range(0, len(labels), batch_size):
+            part = slice(start, start + batch_size)
+            Yb = checked_field_y(_rows(y, part))
+            if not np.isfinite(Yb).any():
+                continue
+            ev = self.evidence(_rows(X, part), _rows(y, part))
+            starts.append(labels[start])
+            rows.append((int(np.isfinite(Yb).any(axis=-1).sum()), ev))
+        return table("from", np.array(starts), self._scan_columns(rows))
+
+    def _scan_columns(self, rows):
+        z = stats.norm.ppf(0.975)
+        evs = [ev for _, ev in rows]
+        columns = {
+            "n_readings": np.array([n for n, _ in rows], dtype=int),
+            "p_value": np.array([ev.p_value for ev in evs]),
+            "changed": np.array([ev.p_value < self.alpha for ev in evs]),
+            "log10_bf": np.array([ev.log10_bayes_factor for ev in evs]),
+            "residual_p_value": np.array([ev.residual_p_value for ev in evs]),
+            "misfit_p_value": np.array([ev.misfit_p_value for ev in evs]),
+        }
+        mean = np.array([ev.change_mean for ev in evs]).reshape(len(evs), -1)
+        sd = np.array([ev.change_sd for ev in evs]).reshape(len(evs), -1)
+        for j, name in enumerate(self.parameter_names_):
+            columns[f"{name}_mean"] = mean[:, j]
+            columns[f"{name}_sd"] = sd[:, j]
+            columns[f"{name}_2.5%"] = mean[:, j] - z * sd[:, j]
+            columns[f"{name}_97.5%"] = mean[:, j] + z * sd[:, j]
+        return columns
+
     def _shift_model(self):
         """The model a change moves: the simulator, else the emulator."""
         simulator = self.simulator
@@ -347,3 +415,8 @@ def _named(X, names):
     import pandas
 
     return pandas.DataFrame(X, columns=list(names))
+
+
+def _rows(A, part):
+    """Rows ``part`` (a slice) of an array or a pandas object."""
+    return A.iloc[part] if hasattr(A, "iloc") else np.asarray(A)[part]

@@ -6,8 +6,8 @@ discrepancy and observation components of a calibrated
 :class:`~skmba.ModularBayesCalibrator` (thesis Figs. 4.14, 5.9), posteriors
 of the calibration parameters against their prior and the truth (Figs.
 4.13, 4.22, 4.33), MCMC traces (Fig. 4.21), the posterior over the updates
-of a monitored structure, and the criteria of a preposterior sensor design
-(Figs. 6.3, 6.5, 6.7).
+of a monitored structure and its changes against a reference state, and the
+criteria of a preposterior sensor design (Figs. 6.3, 6.5, 6.7).
 
 matplotlib is an optional dependency (``pip install skmba[plot]``); it is
 imported when a function is called, not when :mod:`skmba` is imported.
@@ -46,6 +46,7 @@ Examples
 """
 
 from skmba.plotting._bands import plot_gp_prediction
+from skmba.plotting._change import plot_change_history
 from skmba.plotting._components import plot_calibrated_components
 from skmba.plotting._history import plot_theta_history
 from skmba.plotting._posterior import plot_posterior
@@ -58,6 +59,7 @@ from skmba.plotting._traces import plot_traces
 
 __all__ = [
     "plot_calibrated_components",
+    "plot_change_history",
     "plot_convergence",
     "plot_criterion_by_size",
     "plot_criterion_vs_bias",

@@ -152,3 +152,22 @@ def test_bad_use_is_refused_with_the_fix(detector):
     assert framed.predict(
         week[["temperature"]], week[["f4", "f3", "f2", "f1"]]
     ) == framed.predict(week[["temperature"]], week[["f1", "f2", "f3", "f4"]])
+
+
+def test_scan_is_one_evidence_per_batch_and_skips_a_dead_logger(detector):
+    pd = pytest.importorskip("pandas")
+    other = make_bridge_monitoring(n_hours=4 * WEEK, random_state=3)
+    frame = other.frame.copy()
+    frame.iloc[WEEK : 2 * WEEK, 1:] = np.nan  # the second week lost
+    X, y = frame[["temperature"]], frame[["f1", "f2", "f3", "f4"]]
+    scan = detector.scan(X.to_numpy(), y.to_numpy(), batch_size=WEEK)
+    assert len(scan) == 3
+    assert list(scan.index) == [0, 2 * WEEK, 3 * WEEK]
+    last = detector.evidence(other.X_obs[3 * WEEK :], other.y_obs[3 * WEEK :])
+    assert scan["p_value"].iloc[-1] == pytest.approx(last.p_value, rel=1e-12)
+    assert scan["E_mean"].iloc[-1] == pytest.approx(last.change_mean[0], rel=1e-12)
+    assert list(scan["changed"]) == list(scan["p_value"] < detector.alpha)
+    assert scan["n_readings"].iloc[0] == np.isfinite(other.y_obs[:WEEK]).any(1).sum()
+    assert isinstance(scan, pd.DataFrame)
+    with pytest.raises(ValueError, match="batch_size"):
+        detector.scan(X.to_numpy(), y.to_numpy(), batch_size=0)
