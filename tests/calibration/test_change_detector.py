@@ -171,3 +171,31 @@ def test_scan_is_one_evidence_per_batch_and_skips_a_dead_logger(detector):
     assert isinstance(scan, pd.DataFrame)
     with pytest.raises(ValueError, match="batch_size"):
         detector.scan(X.to_numpy(), y.to_numpy(), batch_size=0)
+
+
+def test_a_confounded_design_still_sees_a_change_of_the_effective_parameter():
+    # The cantilever on its unmodelled spring: the data cannot tell E from
+    # the spring (the reference's interval of E is several per cent wide),
+    # yet a 5 % loss of E, the spring unchanged, moves the readings along
+    # E's direction, which the batch sees to well under a per cent.
+    from skmba.datasets import make_cantilever
+
+    ref = make_cantilever(snr_db=30, random_state=0)
+    cal = ModularBayesCalibrator(prior=ref.prior, random_state=0)
+    det = ChangeDetector(cal, simulator=ref.simulator)
+    _quiet(
+        det.fit,
+        ref.X_obs,
+        ref.y_obs,
+        X_sim=ref.X_sim,
+        theta_sim=ref.theta_sim,
+        y_sim=ref.y_sim,
+    )
+    reference_sd = np.sqrt(det.calibrator_.theta_cov_[0, 0]) / det.theta_reference_[0]
+    assert reference_sd > 0.015
+    damaged = make_cantilever(snr_db=30, E_true=0.95 * 70e3, random_state=4)
+    e = det.report(damaged.X_obs, damaged.y_obs).iloc[0]  # the one parameter, E
+    assert det.predict(damaged.X_obs, damaged.y_obs) == -1
+    assert e["sd"] < 0.5 * reference_sd
+    # E_eff = 1 / (1 / E + c): a 5 % loss of E is a 4.8 % loss of E_eff here.
+    assert e["2.5%"] < -0.048 < e["97.5%"]
