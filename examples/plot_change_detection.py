@@ -1,7 +1,7 @@
 """
-==========================================
+===========================================
 Did the bridge change? A year, week by week
-==========================================
+===========================================
 
 A reference year of hourly frequencies of a healthy bridge
 (:func:`~skmba.datasets.make_bridge_monitoring`) calibrates the reference

@@ -98,6 +98,10 @@ class ChangeDetector(BaseEstimator):
         discrepancy model (its mean, variance and correlation), which the
         batch alone must tell from a change.
 
+    Only ``calibrator`` acts on ``fit``; the other parameters act on the
+    batches, so that ``set_params`` after ``fit`` (another ``alpha``, the
+    ``"refit"`` discrepancy) needs no new reference calibration.
+
     Attributes
     ----------
     calibrator_ : ModularBayesCalibrator
@@ -176,11 +180,7 @@ class ChangeDetector(BaseEstimator):
         -------
         self
         """
-        validate_parameter_table(
-            self._parameter_table, self.get_params(deep=False), type(self).__name__
-        )
-        if not 0.0 < self.alpha < 1.0:
-            raise ValueError(f"alpha must be in (0, 1), e.g. 0.05; got {self.alpha!r}.")
+        self._check_params()
         if not (
             hasattr(self.calibrator, "fit")
             and hasattr(self.calibrator, "predict_reality")
@@ -211,6 +211,14 @@ class ChangeDetector(BaseEstimator):
             self.feature_names_in_ = reference.feature_names_in_
         return self
 
+    def _check_params(self):
+        """The parameter table, and ``alpha`` inside (0, 1)."""
+        validate_parameter_table(
+            self._parameter_table, self.get_params(deep=False), type(self).__name__
+        )
+        if not 0.0 < self.alpha < 1.0:
+            raise ValueError(f"alpha must be in (0, 1), e.g. 0.05; got {self.alpha!r}.")
+
     def evidence(self, X, y):
         """What the batch ``X``, ``y`` says about a change.
 
@@ -233,6 +241,7 @@ class ChangeDetector(BaseEstimator):
             Other columns than the reference's; no finite reading.
         """
         check_is_fitted(self, "calibrator_")
+        self._check_params()
         ref = self.calibrator_
         check_same_index(X, y)
         X = validate_data(ref, X, reset=False).astype(float)

@@ -77,7 +77,12 @@ class Baseline:
         self.thresholds = {}
         for name, n in LENGTHS.items():
             starts = range(0, len(X) - n + 1, 24)
-            scores = [self.score(X[i : i + n], Y[i : i + n]) for i in starts]
+            windows = [(X[i : i + n], Y[i : i + n]) for i in starts]
+            scores = [
+                self.score(Xw, Yw)
+                for Xw, Yw in windows
+                if np.all(np.isfinite(Yw), axis=1).any()
+            ]
             self.thresholds[name] = np.quantile(scores, 1 - self.alpha)
         return self
 
@@ -88,9 +93,13 @@ class Baseline:
 
 
 def _batches(data, name):
+    """The batches of a year; one whose logger was down throughout (no hour
+    with all four frequencies, which the baseline needs) is left out."""
     n = LENGTHS[name]
     for i in range(0, len(data.X_obs) - n + 1, n):
-        yield data.X_obs[i : i + n], data.y_obs[i : i + n]
+        Y = data.y_obs[i : i + n]
+        if np.all(np.isfinite(Y), axis=1).any():
+            yield data.X_obs[i : i + n], Y
 
 
 def effective_change(data, theta_0, X):
