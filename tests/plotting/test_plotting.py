@@ -108,6 +108,7 @@ def test_public_names():
 
     assert skmba.plotting.__all__ == [
         "plot_calibrated_components",
+        "plot_change_history",
         "plot_convergence",
         "plot_criterion_by_size",
         "plot_criterion_vs_bias",
