@@ -125,13 +125,22 @@ class ChangeDetector(BaseEstimator):
     >>> import numpy as np
     >>> from skmba import ChangeDetector, ModularBayesCalibrator
     >>> from skmba.datasets import make_bridge_monitoring
+    >>> import warnings
     >>> data = make_bridge_monitoring(n_hours=24 * 28, random_state=0)
     >>> calibrator = ModularBayesCalibrator(
     ...     prior=data.prior, discrepancy_uncertainty="plug-in", bin_width=1.0,
-    ...     random_state=0)
-    >>> detector = ChangeDetector(calibrator).fit(
-    ...     data.X_obs, data.y_obs, X_sim=data.X_sim, theta_sim=data.theta_sim,
-    ...     y_sim=data.y_sim)  # doctest: +SKIP
+    ...     n_samples=500, burn_in=200, random_state=0)
+    >>> detector = ChangeDetector(calibrator, bin_width=0.5, simulator=data.simulator)
+    >>> with warnings.catch_warnings():  # E is confounded with the discrepancy
+    ...     warnings.simplefilter("ignore")
+    ...     detector = detector.fit(data.X_obs, data.y_obs, X_sim=data.X_sim,
+    ...                             theta_sim=data.theta_sim, y_sim=data.y_sim)
+    >>> week = make_bridge_monitoring(n_hours=168, damage_size=0.1,
+    ...                               damage_start=0, random_state=1)
+    >>> detector.predict(week.X_obs, week.y_obs)  # a 10 % loss of one element
+    -1
+    >>> detector.report(week.X_obs, week.y_obs)["log10_bf"].idxmax()
+    'E'
     """
 
     _parameter_table: ClassVar[dict] = {
