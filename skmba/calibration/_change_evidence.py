@@ -152,7 +152,7 @@ def change_evidence(r, Sigma, eta, n_parameters, tau):
             for j in range(n_par)
         ]
     )
-    mean, cov = _posterior(rw, white, eta, tau, n_par)
+    mean, cov = _posterior(rw, white, eta, Gw, tau)
     return BatchEvidence(
         statistic,
         degrees,
@@ -181,19 +181,21 @@ def _log_bayes_factor(A, b, tau):
     return 0.5 * float(z @ z) - 0.5 * log_det
 
 
-def _posterior(rw, white, eta, tau, n_par):
-    """Mode and Laplace covariance of ``Delta`` (Gauss-Newton on ``eta``)."""
+def _posterior(rw, white, eta, Gw, tau):
+    """Mode and Laplace covariance of ``Delta`` (Gauss-Newton on ``eta``),
+    from ``Delta = 0`` where the whitened Jacobian is ``Gw``; each step's
+    Jacobian serves the next step and, at the mode, the covariance."""
+    n_par = Gw.shape[1]
     delta = np.zeros(n_par)
     prior_precision = np.eye(n_par) / tau**2
     for _ in range(_GAUSS_NEWTON_STEPS):
-        Gw = white(jacobian(eta, delta))
         misfit = rw - white(eta(delta)) + Gw @ delta
         C = cholesky(Gw.T @ Gw + prior_precision, what="posterior precision")
         new = linalg.cho_solve((C, True), Gw.T @ misfit)
         done = np.max(np.abs(new - delta)) < 1e-9
         delta = new
+        Gw = white(jacobian(eta, delta))
         if done:
             break
-    Gw = white(jacobian(eta, delta))
     C = cholesky(Gw.T @ Gw + prior_precision, what="posterior precision")
     return delta, linalg.cho_solve((C, True), np.eye(n_par))

@@ -95,7 +95,14 @@ def test_a_stiffness_loss_is_detected_and_put_on_the_deck(detector):
     # well under 2 % of the deck's effective E.
     assert e["97.5%"] < 0 and e["2.5%"] > -0.02
     assert report["log10_bf"].idxmax() == "E"
-    assert 0.0 <= e["p_exceeds"] <= 1.0
+    # A 0.7 % change: surely below the default 1 % threshold, surely above
+    # 0.1 % (the normal tails of the posterior, against the dense formula).
+    assert e["p_exceeds"] < 1e-6
+    lowered = copy.deepcopy(detector).set_params(threshold=0.001)
+    e_low = lowered.report(X, y).loc["E"]
+    z = (0.001 + e_low["mean"]) / e_low["sd"]
+    assert e_low["p_exceeds"] == pytest.approx(stats.norm.sf(z), abs=1e-12)
+    assert e_low["p_exceeds"] > 0.999
 
 
 def test_a_refitted_discrepancy_absorbs_much_of_a_change(detector):
