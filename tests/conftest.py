@@ -65,9 +65,10 @@ def _dense_global(problem, theta, component=None, X_star=None, full=False):
     R_mm = km(X_m) + 1e-6 * np.eye(N)
     A = np.kron(S_m, R_mm)
     B = np.kron(S_m, km(X_m, P_e))
-    # The nugget is on the whole model correlation R(D), field points too.
+    # The nugget is on the simulations only: the model at the field points
+    # is the simulator's output there.
     D = (
-        np.kron(S_m, km(P_e) + 1e-6 * np.eye(n))
+        np.kron(S_m, km(P_e))
         + np.kron(sigma2_d, kd(X_e))
         + np.kron(np.diag(noise), np.eye(n))
     )

@@ -24,7 +24,7 @@ Examples
 >>> scaler = Standardizer.from_simulations(X, theta, y)
 >>> emulator = fit_emulator(scaler, X, theta, y, random_state=0)
 >>> cond = emulator.conditional(scaler.x(X[:3]), scaler.theta(np.array([[1.5]])))
->>> cond.mean().shape, cond.correlation(emulator.nugget).shape
+>>> cond.mean().shape, cond.correlation().shape
 ((1, 3, 2), (1, 3, 3))
 """
 
@@ -219,8 +219,9 @@ class EmulatorConditional:
     the others follow on demand:
 
     * :meth:`mean`: the kriging mean ``h' beta + Rt' C^-1 (Y_m - H_m beta)``;
-    * :meth:`correlation`: ``T = R_m(D_e) - Rt' Rt`` (plus a nugget), the
-      correlation given the simulations with ``beta`` known;
+    * :meth:`correlation`: ``T = R_m(D_e) - Rt' Rt``, the correlation of the
+      simulator's output given the simulations with ``beta`` known (the
+      nugget is on the simulations only, see :meth:`correlation`);
     * :meth:`universal_correlation`: ``T`` plus the regression term of
       universal kriging (``beta`` estimated);
     * :meth:`H_me`: ``H_m(D_e) - Rt' C^-1 H_m`` and :meth:`M`:
@@ -257,8 +258,17 @@ class EmulatorConditional:
             self.k, self.n, -1
         )
 
-    def correlation(self, nugget=0.0, prior=None):
-        """``R_m(D_e) - Rt' Rt + nugget I`` per theta (k, n, n).
+    def correlation(self, prior=None):
+        """``R_m(D_e) - Rt' Rt`` per theta (k, n, n).
+
+        The correlation of the simulator's output at the points given the
+        simulations, with no nugget of its own: the nugget is in ``C`` (the
+        simulations), where it stands for the emulator's smoothing of them;
+        a deterministic simulator has no error at a point it was not run at
+        beyond what the emulator does not know, which this is. (A nugget
+        here, ``alpha`` times the emulator's variance, grows with that
+        variance: on a nearly flat emulator it exceeded the noise of the
+        readings and did not shrink with their number, docs/internals.rst.)
 
         ``prior``, of shape (n, n), is ``R_m(D_e)`` when it is known not to
         depend on theta (:meth:`Emulator.field_correlation`).
@@ -270,9 +280,7 @@ class EmulatorConditional:
         ]
         if prior is None:
             prior = self.prior_correlation()
-        T = prior - np.stack(RtRt)
-        T[:, np.arange(n), np.arange(n)] += nugget
-        return T
+        return prior - np.stack(RtRt)
 
     def universal_correlation(self):
         """Correlation of universal kriging per theta (k, n, n)."""

@@ -154,7 +154,7 @@ def identifiability(model, theta, hyperprior):
     means = cond.mean()  # (2r + 1, n, q)
     J = ((means[:r] - means[r : 2 * r]) / (2 * _STEP)).transpose(2, 1, 0)
     J = J.reshape(q * n, r)  # response-slowest, as vec(Y)
-    T = cond.correlation(model.nugget)[-1]
+    T = cond.correlation()[-1]
     V0 = np.kron(model.sigma2_m, T) + noise_covariance(model.noise, n, model.replicates)
     sd = np.sqrt(np.clip(np.diag(model.sigma2_d), 1e-300, None))
     corr = model.sigma2_d / np.outer(sd, sd)

@@ -222,13 +222,10 @@ class GlobalModel:
     ----------
     emulator : Emulator
         The fitted module-1 emulator (simulations, correlation, nugget).
-        Its nugget is on the diagonal of the model correlation at the field
-        inputs as at the simulations, so that the model term of the global
-        covariance is ``Sigma2_m ⊗ (R(D) + alpha I)`` over all its points:
-        the emulator's own uncertainty at a simulated point. It also keeps
-        the Schur complement positive definite when the round-off of
-        ``R_ee - R_me' R_mm^-1 R_me``, scaled by a large ``Sigma2_m``, would
-        exceed a vanishing noise.
+        Its nugget is on the simulations' block only: the model term at the
+        field inputs is the simulator's output there, a deterministic
+        function (:meth:`EmulatorConditional.correlation
+        <skmba.calibration._module1_emulator.EmulatorConditional.correlation>`).
     X_e : ndarray of shape (n, d)
         Standardised field inputs.
     Y_e : ndarray of shape (n, q)
@@ -254,7 +251,6 @@ class GlobalModel:
         self.emulator = emulator
         self.replicates = replicates
         self.X_m, self.Y_m, self.X_e, self.Y_e = emulator.Z, emulator.Y, X_e, Y_e
-        self.nugget = float(emulator.nugget)
         self.kernel_m, self.regression_m = emulator.kernel, emulator.regression
         self.regression_d = discrepancy.regression
         self.C_m = emulator.C
@@ -336,7 +332,7 @@ class GlobalModel:
         hyperparameters.
         """
         cond = self.emulator.conditional(self.X_e, thetas)
-        T = cond.correlation(self.nugget, prior=self.R_ee)
+        T = cond.correlation(prior=self.R_ee)
         k, n, q = len(T), self.n, self.q
         terms = np.einsum("ij,kab->kiajb", self.sigma2_m, T).reshape(k, q * n, q * n)
         if self.observed is not None:

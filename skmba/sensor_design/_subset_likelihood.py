@@ -36,7 +36,7 @@ class FieldDesignEmulator:
     Per ``theta`` (see
     :class:`~skmba.calibration._module1_emulator.EmulatorConditional`)::
 
-        T(theta)    = R_m(D_e(theta)) - Rt' Rt + nugget I       (n, n)
+        T(theta)    = R_m(D_e(theta)) - Rt' Rt                  (n, n)
         H_me(theta) = H_m(D_e(theta)) - Rt' C_m^-1 H_m          (n, p_m)
         M(theta)    = Rt' C_m^-1 Y_m                            (n, q)
 
@@ -67,7 +67,7 @@ class FieldDesignEmulator:
         M : ndarray of shape (k, n, q)
         """
         cond = self.emulator.conditional(self.X_e, thetas)
-        return cond.correlation(self.emulator.nugget), cond.H_me(), cond.M()
+        return cond.correlation(), cond.H_me(), cond.M()
 
     def simulation_block(self, responses):
         """The whitened simulation block of a response subset (cached).

@@ -39,7 +39,7 @@ def test_field_correlation_is_the_correlation_at_every_theta(problem):
         cond = gm.emulator.conditional(gm.X_e, np.array([[theta]]))
         np.testing.assert_array_equal(cond.prior_correlation()[0], gm.R_ee)
         np.testing.assert_array_equal(
-            cond.correlation(gm.nugget, prior=gm.R_ee), cond.correlation(gm.nugget)
+            cond.correlation(prior=gm.R_ee), cond.correlation()
         )
 
 
