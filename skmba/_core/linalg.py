@@ -177,6 +177,33 @@ def stacked_whitening(S, Z, eigenvalue_floor):
     return factor[:, :m, :m], np.swapaxes(factor[:, m:, :m], 1, 2)
 
 
+def kron_sum(*pairs):
+    """``sum_t A_t ⊗ B_t`` for square ``A_t`` (q, q) and ``B_t`` of one shape.
+
+    Assembled block by block, ``q^2`` scaled copies of the ``B_t``: for the
+    small ``q`` of responses this is several times faster than ``np.kron``
+    or a four-dimensional broadcast (0.5 against 2-3 ms for two 4 x 4 by
+    100 x 100 terms).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> A, B = np.array([[1.0, 2.0], [3.0, 4.0]]), np.eye(2)
+    >>> bool(np.array_equal(kron_sum((A, B), (A, B)), 2 * np.kron(A, B)))
+    True
+    """
+    (A0, B0), rest = pairs[0], pairs[1:]
+    q, (a, b) = len(A0), B0.shape
+    out = np.empty((q, a, q, b))
+    for i in range(q):
+        for j in range(q):
+            block = out[i, :, j, :]
+            np.multiply(A0[i, j], B0, out=block)
+            for A, B in rest:
+                block += A[i, j] * B
+    return out.reshape(q * a, q * b)
+
+
 def log_det_from_cholesky(C):
     """``log |C C'|`` from a Cholesky factor ``C``.
 

@@ -31,6 +31,7 @@ from skmba._core.linalg import (
     FLOAT_BYTES,
     FactorizationError,
     check_memory,
+    kron_sum,
     n_workers,
     observed_rows,
 )
@@ -164,54 +165,72 @@ def conditional_moments(model, theta, X, component, return_var=True, full=False)
     with_model = component in ("model", "reality", "observation")
     with_delta = component in ("discrepancy", "reality", "observation")
     P_s = np.hstack([X, np.repeat(w.theta.reshape(1, -1), s, axis=0)])
-    # Cross-covariances with the data, whitened block by block.
-    top = np.zeros((model.N * q, s * q))
-    bot = np.zeros((model.n * q, s * q))
+    # Cross-covariances with the data, whitened block by block. The
+    # simulations' block is L_A^-1 (Sigma_m ⊗ r_ms) = L_sm' ⊗ K_ms, used
+    # through its Kronecker products and never formed: its products with the
+    # residual, the regression and itself are q-by-q times N-by-s ones.
+    P = model.P
+    top_mean = np.zeros(s * q)
+    top_regression = np.zeros((P, s * q))
+    terms = []  # the field block's cross-covariance, sum of A ⊗ B
     h_m = np.zeros((s, model.p_m))
     h_d = np.zeros((s, model.p_d))
     prior_diag = np.zeros((s, q))
+    K_ms = None
     if with_model:
         K_ms = linalg.solve_triangular(
             model.C_m, model.kernel_m(model.X_m, P_s), lower=True
         )
-        top = np.kron(model.L_sm.T, K_ms)  # L_A^-1 (Sigma_m ⊗ r_ms)
-        bot = np.kron(model.sigma2_m, model.kernel_m(w.P_e, P_s) - w.Rt.T @ K_ms)
+        resid = w.resid_top.reshape(q, model.N).T  # (N, q)
+        top_mean = (K_ms.T @ resid @ model.L_sm.T).T.ravel()
+        # X_top = L_sm^-1 ⊗ C_m^-1 H_m: its product is I ⊗ (C_m^-1 H_m)' K_ms.
+        block = model.H_m_white.T @ K_ms
+        top_regression[: model.p_m * q] = np.kron(np.eye(q), block)
+        terms.append((model.sigma2_m, model.kernel_m(w.P_e, P_s) - w.Rt.T @ K_ms))
         h_m = regression_basis(P_s, model.regression_m)
         prior_diag += np.outer(model.kernel_m.diag(P_s), np.diag(model.sigma2_m))
     if with_delta:
-        bot = bot + np.kron(model.sigma2_d, model.kernel_d(model.X_e, X))
+        terms.append((model.sigma2_d, model.kernel_d(model.X_e, X)))
         h_d = regression_basis(X, model.regression_d)
         prior_diag += np.outer(model.kernel_d.diag(X), np.diag(model.sigma2_d))
     if component == "observation":
         prior_diag += model.noise
-    bot = linalg.solve_triangular(w.L_S, observed_rows(bot, model.observed), lower=True)
+    bot = linalg.solve_triangular(
+        w.L_S, observed_rows(kron_sum(*terms), model.observed), lower=True
+    )
     h = np.hstack([np.kron(np.eye(q), h_m), np.kron(np.eye(q), h_d)])  # (sq, P)
-    mean = h @ w.beta + top.T @ w.resid_top + bot.T @ w.resid_bot
+    mean = h @ w.beta + top_mean + bot.T @ w.resid_bot
     mean = mean.reshape(q, s).T
     if not return_var:
         return mean
-    U = h.T - model.X_top_full.T @ top - w.X_bot.T @ bot  # (P, sq)
+    U = h.T - top_regression - w.X_bot.T @ bot  # (P, sq)
     Ut = linalg.solve_triangular(w.G, U, trans="T")
     if full:
-        cov = _prior_covariance(model, P_s, X, with_model, with_delta, component)
-        cov -= top.T @ top + bot.T @ bot
+        # The model's prior less the simulations' reduction in one product:
+        # Sigma_m ⊗ (R_m(P_s) - K_ms' K_ms).
+        reduced = None if K_ms is None else model.kernel_m(P_s) - K_ms.T @ K_ms
+        cov = _prior_covariance(model, reduced, X, with_delta, component)
+        cov -= bot.T @ bot
         cov += Ut.T @ Ut
         return mean, 0.5 * (cov + cov.T)
-    reduction = np.sum(top**2, axis=0) + np.sum(bot**2, axis=0)
+    reduction = np.sum(bot**2, axis=0)
+    if K_ms is not None:
+        reduction += np.outer(np.diag(model.sigma2_m), np.sum(K_ms**2, axis=0)).ravel()
     var = prior_diag.T.ravel() - reduction + np.sum(Ut**2, axis=0)
     return mean, np.clip(var.reshape(q, s).T, 0.0, None)
 
 
-def _prior_covariance(model, P_s, X, with_model, with_delta, component):
-    """The prior covariance (s q, s q) of a component at ``X``, response-slowest."""
+def _prior_covariance(model, model_term, X, with_delta, component):
+    """A component's covariance (s q, s q) at ``X``, response-slowest, from
+    the model's correlation term ``model_term`` (s, s; None: no model) and the
+    discrepancy's and noise's priors."""
     s, q = len(X), model.q
-    cov = np.zeros((s * q, s * q))
-    if with_model:
-        cov += np.kron(model.sigma2_m, model.kernel_m(P_s))
+    terms = [] if model_term is None else [(model.sigma2_m, model_term)]
     if with_delta:
-        cov += np.kron(model.sigma2_d, model.kernel_d(X))
+        terms.append((model.sigma2_d, model.kernel_d(X)))
+    cov = kron_sum(*terms)
     if component == "observation":
-        cov += np.kron(np.diag(model.noise), np.eye(s))
+        cov[np.diag_indices(s * q)] += np.repeat(model.noise, s)
     return cov
 
 

@@ -6,7 +6,6 @@ and the batches of ``partial_fit`` are what they say."""
 import numpy as np
 import pytest
 
-from skmba import MultiResponseGP
 from skmba.calibration._field_replicates import (
     FieldReadings,
     ReplicateTerms,
@@ -16,7 +15,7 @@ from skmba.calibration._field_replicates import (
 from skmba.calibration._module1_emulator import Emulator
 from skmba.calibration._module2_plug_in import DiscrepancyFit
 from skmba.calibration._module3_likelihood import GlobalModel
-from skmba.kernels import Exp, Gauss
+from skmba.kernels import Gauss
 from tests.conftest import discrepancy
 
 # Readings of the six inputs of the conftest problem: input i is read

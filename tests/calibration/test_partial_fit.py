@@ -48,10 +48,12 @@ def _in_batches(cal, labels):
         ("plug-in", FRAME.index.month, 0.1, 0.1),
         # Propagated, one fit on all the readings is itself no closer to
         # another with another random_state: its 16 module-2 draws move the
-        # means by 0.19 and 0.13 posterior sds (sd over random_state 0-4)
-        # and the sds by 5-8 % (this set-up, all the readings, measured);
-        # module 2's update starts over the last posterior, not a first pass.
-        ("propagate", FRAME.index.quarter, 0.3, 0.15),
+        # means by 0.12 and 0.13 posterior sds and the sds by 3 % (E) and
+        # 11 % (k_bearing) (sd over random_state 0-4, this set-up, all the
+        # readings, measured; issue 30's Monte Carlo error). The bounds are
+        # three sds of the difference of two such fits (sqrt(2) times one).
+        # Module 2's update starts over the last posterior, not a first pass.
+        ("propagate", FRAME.index.quarter, 0.55, (0.15, 0.5)),
     ],
 )
 def test_batches_agree_with_one_fit_on_all_of_them(
@@ -65,7 +67,8 @@ def test_batches_agree_with_one_fit_on_all_of_them(
     full = _quiet(_calibrator(discrepancy_uncertainty=uncertainty).fit, X, Y, **SIMS)
     sd = np.sqrt(np.diag(full.theta_cov_))
     assert np.all(np.abs(updated.theta_mean_ - full.theta_mean_) <= mean_tol * sd)
-    np.testing.assert_allclose(np.sqrt(np.diag(updated.theta_cov_)), sd, rtol=sd_tol)
+    ratio = np.sqrt(np.diag(updated.theta_cov_)) / sd
+    assert np.all(np.abs(ratio - 1.0) <= sd_tol), ratio
     # the readings and the emulator are those of the one fit
     np.testing.assert_array_equal(updated.y_obs_, full.y_obs_)
     np.testing.assert_array_equal(updated.y_sim_, full.y_sim_)
