@@ -38,6 +38,11 @@ Usage::
 
     python -m validation.studies.change_detection --n-seeds 9 --n-jobs 2
 
+``--first-seed`` starts the reference years elsewhere (a run of more seeds
+adds to an earlier one without repeating it); ``--sizes`` with no value runs
+the no-change batches only (false alarms); ``--save FILE`` writes every
+batch's row (``.npz``, one array per seed, size and length) for re-analysis.
+
 The results are in ``docs/monitoring.rst``.
 """
 
@@ -237,7 +242,9 @@ def _report(kinds, results, sizes, alpha):
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n-seeds", type=int, default=9)
+    parser.add_argument("--first-seed", type=int, default=0)
     parser.add_argument("--n-jobs", type=int, default=1)
+    parser.add_argument("--save", default=None, metavar="FILE")
     parser.add_argument(
         "--sizes", type=float, nargs="*", default=[0.01, 0.02, 0.05, 0.1]
     )
@@ -261,10 +268,24 @@ def main(argv=None):
             args.shift,
             (args.kernel, args.reference_bin_width),
         )
-        for s in range(args.n_seeds)
+        for s in range(args.first_seed, args.first_seed + args.n_seeds)
     )
     kinds = out[0][0]
-    print(f"{args.n_seeds} reference years, {time.perf_counter() - started:.0f} s")
+    seeds = f"seeds {args.first_seed}-{args.first_seed + args.n_seeds - 1}"
+    print(
+        f"{args.n_seeds} reference years ({seeds}), "
+        f"{time.perf_counter() - started:.0f} s"
+    )
+    if args.save:
+        np.savez(
+            args.save,
+            **{
+                f"seed{args.first_seed + i}_size{size:g}_{name}": rows
+                for i, (_, result) in enumerate(out)
+                for size, by_length in result.items()
+                for name, rows in by_length.items()
+            },
+        )
     _report(kinds, [r for _, r in out], args.sizes, args.alpha)
 
 
