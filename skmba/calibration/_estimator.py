@@ -131,8 +131,14 @@ class ModularBayesCalibrator(
     n_chains : int, default=4
         Metropolis-Hastings chains (MCMC only), run in parallel.
     n_samples : int, default=5000
-        Draws per chain kept after burn-in (MCMC), or the number of draws
-        ``theta_samples_`` resampled from the quadrature posterior.
+        Draws per chain kept after burn-in (MCMC; with ``target_ess``, the
+        most), or the number of draws ``theta_samples_`` resampled from the
+        quadrature posterior.
+    target_ess : float or None, default=2000
+        MCMC: the chains stop at the first checkpoint (every 250 draws) where
+        every parameter's bulk and tail effective sample size reach it and
+        its R-hat is at most 1.01; None: always ``n_samples`` draws. Ask
+        for more (with a larger ``n_samples``) for finer interval ends.
     burn_in : int, default=1000
         Draws per chain discarded; the proposal adapts during burn-in only.
     n_jobs : int, default=None
@@ -144,9 +150,8 @@ class ModularBayesCalibrator(
     n_integration_nodes : int, default=None
         Module-2 nodes (default 32 for quadrature, 256 for qmc).
     module2_variance : {"total", "conditional"}, default="total"
-        "conditional" uses Eq. 4.15 as printed; "total" adds the spread of
-        the emulator mean over the prior (law of total variance; the User
-        Guide says why it is the default).
+        "conditional": Eq. 4.15 as printed; "total" adds the spread of the
+        emulator mean over the prior (total variance; why: User Guide).
     n_restarts_optimizer : int, default=2
         Random restarts of the module-1 and module-2 likelihood maximisation.
     discrepancy_optimizer : {"fmin_l_bfgs_b", "differential_evolution"}
@@ -184,12 +189,10 @@ class ModularBayesCalibrator(
         are below this many posterior sds (the 95 % ends: twice that), in
         blocks of 128 draws, at most 4096; reported by ``summary()``. 0.05
         makes the interval reproducible whatever ``random_state``, at a
-        higher cost (User Guide, "The same data, the same interval"). None:
-        16 draws, whose interval moves with ``random_state``.
+        cost (User Guide). None: 16 draws, moving with ``random_state``.
     emulator_alpha : float, default=1e-8
-        Nugget of the emulator's correlation matrix, at the simulations and
-        at the field inputs of the module-3 likelihood alike (the model term
-        of the global covariance is ``Sigma2_m ⊗ (R + alpha I)``).
+        Nugget of the emulator's correlation matrix at the simulations (not
+        at the field inputs, where the model is the simulator's output).
     bin_width : float or array-like of shape (d,), default=None
         Readings repeated at the same inputs always enter modules 2-4 as
         their mean and count (exact). A width (units of ``X``, e.g. 0.5 °C)
@@ -198,12 +201,9 @@ class ModularBayesCalibrator(
         year of monitoring (User Guide, "Monitoring over time").
     verbose : int, default=0
         Progress on standard error, prefixed ``[ModularBayesCalibrator]``:
-        0 prints nothing; 1 shows progress bars (simulator runs, emulator
-        and module-2 restarts, MCMC steps of all chains, also when joblib
-        workers run them) and a line per module (time, noise, posterior,
-        MCMC diagnostics); 2 also detail lines (each restart, each chain's
-        burn-in and acceptance). Results do not depend on it (see the User
-        Guide).
+        0 prints nothing; 1 shows progress bars (simulator runs, restarts,
+        MCMC steps, also in joblib workers) and a line per module; 2 also
+        detail lines (each restart, chain). Results do not depend on it.
 
     Attributes
     ----------
@@ -220,18 +220,16 @@ class ModularBayesCalibrator(
         evaluated on the standardised inputs.
     noise_ : ndarray of shape (q,)
         Measurement-noise variances in squared response units: the module-2
-        estimate (the posterior mode under the default ``"propagate"``, in
-        the coordinates of its Laplace approximation, which lies about 12 %
-        below the posterior mean on 20-30 readings per response; ``predict``
-        adds the posterior mean, see the user guide).
+        estimate (under ``"propagate"`` the posterior mode, about 12 % below
+        the mean on 20-30 readings; ``predict`` adds the mean, User Guide).
     theta_samples_ : ndarray of shape (n_draws, r)
         Posterior draws (pooled chains after burn-in, or draws from the
         quadrature posterior).
-    theta_chains_ : ndarray of shape (n_chains, n_samples, r)
-        The MCMC draws after burn-in chain by chain, in user units, for trace
-        plots; ``theta_samples_`` is ``theta_chains_.reshape(-1, r)``. Only
-        with MCMC.
-    theta_log_posterior_ : ndarray of shape (n_chains, n_samples)
+    theta_chains_ : ndarray of shape (n_chains, n_kept, r)
+        The MCMC draws after burn-in chain by chain (``n_kept`` at most
+        ``n_samples``, fewer when ``target_ess`` stopped them), in user
+        units; ``theta_samples_`` is ``theta_chains_.reshape(-1, r)``.
+    theta_log_posterior_ : ndarray of shape (n_chains, n_kept)
         :meth:`log_posterior` at each draw of ``theta_chains_``; only with
         MCMC.
     theta_mean_ : ndarray of shape (r,)
@@ -345,6 +343,7 @@ class ModularBayesCalibrator(
         sampler="auto",
         n_chains=4,
         n_samples=5000,
+        target_ess=2000,
         burn_in=1000,
         n_jobs=None,
         random_state=None,
@@ -371,6 +370,7 @@ class ModularBayesCalibrator(
         self.sampler = sampler
         self.n_chains = n_chains
         self.n_samples = n_samples
+        self.target_ess = target_ess
         self.burn_in = burn_in
         self.n_jobs = n_jobs
         self.random_state = random_state

@@ -34,6 +34,7 @@ from skmba._core.warn import warn
 from skmba.mcmc._diagnostics import check_diagnostics
 from skmba.mcmc._posterior import PosteriorResult, laplace
 from skmba.mcmc._run import run_chains
+from skmba.mcmc._stopping import EssTarget
 
 SAMPLERS = ("auto", "quadrature", "mcmc")
 # One-parameter posterior quadrature: nodes per pass, most passes, and the
@@ -410,6 +411,7 @@ def posterior_by_mcmc(
     check=True,
     earlier=None,
     joint=False,
+    target_ess=None,
 ):
     """Metropolis-Hastings chains on the sampling coordinates.
 
@@ -438,6 +440,10 @@ def posterior_by_mcmc(
         data)`` changes over the posterior; chains whose burn-in shows it
         fall back to the mixture. For the propagated module 2's first
         pass, which only locates the posterior.
+    target_ess : float, default=None
+        End the draws once every parameter's bulk and tail ESS reach it and
+        its R-hat is at most 1.01 (:class:`~skmba.mcmc._stopping.EssTarget`);
+        ``n_samples`` is then the most. None: ``n_samples`` draws.
 
     Returns
     -------
@@ -455,9 +461,10 @@ def posterior_by_mcmc(
         if earlier is not None
         else f"posterior mode found in {time.perf_counter() - started:.1f} s"
     )
+    until = "" if target_ess is None else f" at most, until ESS {target_ess:g}"
     say(
         f"module 3: {where}; running {n_chains} chain(s) of {burn_in} burn-in + "
-        f"{n_samples} steps"
+        f"{n_samples} steps{until}"
     )
     chain_posterior, kept = _without_idle_draws(log_posterior, mode, cov, starts)
 
@@ -479,6 +486,7 @@ def posterior_by_mcmc(
             keep_log_density=check,
             # An earlier run's draws fit the independence proposal at once.
             moments=None if earlier is None else (mode, cov),
+            stopping=None if target_ess is None else EssTarget(target_ess),
         )
 
     result = sample(chain_posterior)

@@ -463,6 +463,7 @@ def _posterior(inputs, log_post, seed, first_pass, earlier):
     return posterior_by_mcmc(
         log_post,
         **length,
+        target_ess=None if first_pass else s.target_ess,
         n_jobs=s.n_jobs,
         random_state=seed,
         progress=inputs.progress,

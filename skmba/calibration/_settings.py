@@ -62,6 +62,9 @@ PARAMETER_TABLE = {
     "sampler": [Options(SAMPLERS)],
     "n_chains": [Count(minimum=1)],
     "n_samples": [Count(minimum=1)],
+    "target_ess": [
+        Real(minimum=1, hint="e.g. 2000; None: n_samples draws", allow_none=True)
+    ],
     "burn_in": [Count(minimum=0)],
     "n_jobs": [NJobs()],
     "random_state": "no_validation",  # check_random_state, in fit
@@ -134,6 +137,7 @@ class SamplerSettings(KeywordGroup):
     n_chains: int
     n_samples: int
     burn_in: int
+    target_ess: float | None
     n_jobs: int | None
 
 
@@ -212,6 +216,7 @@ class CalibrationSettings:
                 n_chains=p["n_chains"],
                 n_samples=p["n_samples"],
                 burn_in=p["burn_in"],
+                target_ess=p["target_ess"],
                 n_jobs=p["n_jobs"],
             ),
         )

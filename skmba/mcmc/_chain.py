@@ -221,6 +221,20 @@ class Chain:
             self._draws(log_density, until - self.steps)
         self.seconds += time.perf_counter() - started
 
+    def stop(self, log_density):
+        """End the draws where they are (a run stopped by a rule, e.g.
+        :class:`~skmba.mcmc._stopping.EssTarget`): the kept arrays are cut
+        to the draws made, which are the first draws of the longer run."""
+        m = self.drawn
+        if m == self.n_samples:
+            return
+        self.n_samples = m
+        self.samples, self.values = self.samples[:m], self.values[:m]
+        self.labels = self.labels[:m]
+        self.pending = None
+        if self.labelled and self.keep_log_density:
+            self._marginal_values(log_density)
+
     def _block(self, log_density, m, chol):
         """The :class:`_Block` of the next ``m`` steps.
 

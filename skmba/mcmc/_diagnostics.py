@@ -8,6 +8,9 @@ shape ``(n_chains, n_draws)`` of one parameter.
   Gelman, Simpson, Carpenter & Bürkner (2021), "Rank-normalization, folding,
   and localization: an improved R-hat for assessing convergence of MCMC",
   *Bayesian Analysis* 16(2), 667-718.
+* :func:`ess_tail` is their tail effective sample size, the smaller of the
+  effective sample sizes of the 5 % and 95 % quantiles' indicators: what
+  sets the Monte Carlo error of an interval's ends.
 * :func:`check_diagnostics` warns when a run of
   :func:`skmba.mcmc._run.run_chains` has not converged and says what to
   change.
@@ -243,6 +246,43 @@ def ess_bulk(chains):
     if not _usable(chains):
         return math.nan
     return _ess(rank_normalize(_split(chains)))
+
+
+def ess_tail(chains):
+    """Tail effective sample size of one parameter.
+
+    The smaller of the effective sample sizes of ``I(x <= q_0.05)`` and
+    ``I(x <= q_0.95)`` over the split chains (see :func:`split_rhat`),
+    ``q_p`` the ``p`` quantile of all draws (Vehtari et al. 2021, section
+    4.3): the draws' worth for the ends of an interval, which a sampler
+    that moves slowly through the tails has fewer of than its bulk ESS
+    says. Equals ``arviz.ess(chains, method="tail")`` (ArviZ 0.x) to
+    rounding (checked in ``tests/mcmc/test_diagnostics.py``).
+
+    Parameters
+    ----------
+    chains : array_like of shape (n_chains, n_draws)
+        Draws of one parameter (a 1-D array is a single chain).
+
+    Returns
+    -------
+    ess : float
+        NaN as for :func:`ess_bulk`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skmba.mcmc._diagnostics import ess_tail
+    >>> rng = np.random.default_rng(0)
+    >>> bool(3400 < ess_tail(rng.normal(size=(4, 1000))) < 4600)
+    True
+    """
+    chains = _as_chains(chains)
+    if not _usable(chains):
+        return math.nan
+    split = _split(chains)
+    low, high = np.quantile(chains, [0.05, 0.95])
+    return min(_ess((split <= low).astype(float)), _ess((split <= high).astype(float)))
 
 
 def check_diagnostics(result, rhat_threshold=1.01, min_ess=400, *, names=None):

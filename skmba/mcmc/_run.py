@@ -133,6 +133,7 @@ def run_chains(
     progress=None,
     keep_log_density=True,
     moments=None,
+    stopping=None,
 ):
     """Run adaptive Metropolis-Hastings chains in parallel.
 
@@ -160,7 +161,8 @@ def run_chains(
         Starting point of each chain; each must have a finite log-density.
         Dispersed starts make :attr:`ChainResult.rhat` meaningful.
     n_samples : int
-        Number of draws kept per chain, after burn-in.
+        Number of draws kept per chain, after burn-in (with ``stopping``,
+        the most).
     burn_in : int
         Number of initial steps per chain, discarded (and used for adaptation).
     proposal_cov : array_like of shape (r, r) or (n_chains, r, r), default=None
@@ -222,6 +224,11 @@ default=None
         docs/internals.rst, section skmba.mcmc._run); chains they leave
         unmixed show in the diagnostics. A covariance that is not positive
         definite is not used (the moves then start halfway, as without).
+    stopping : skmba.mcmc._stopping.EssTarget, default=None
+        A rule that ends the draws of all chains before ``n_samples``, at the
+        first of its checkpoints where the draws so far meet it (all chains
+        stop together). The draws are the first draws of the run without
+        it. None: ``n_samples`` draws.
 
     Returns
     -------
@@ -273,6 +280,7 @@ default=None
         progress=Progress(verbose) if progress is None else progress,
         keep_log_density=bool(keep_log_density),
         moments=_check_moments(moments, r),
+        stopping=stopping,
     )
 
 
@@ -288,14 +296,16 @@ def _run_parallel(
     progress,
     keep_log_density,
     moments=None,
+    stopping=None,
 ):
     """Run each chain's ``(log_density, start, start_value, chol, seed)``.
 
     Each chain is a :class:`~skmba.mcmc._chain.Chain` advanced by :func:`_advance` in
     :class:`joblib.Parallel` tasks: in one segment without a progress bar,
     else in about ``_PROGRESS_SEGMENTS`` segments, the bar being updated as
-    each returns. A chain's draws depend on its seed only, not on the
-    segments nor on where they run. Returns the stacked
+    each returns, and at the checkpoints of ``stopping``. A chain's draws
+    depend on its seed only, not on the segments nor on where they run.
+    Returns the stacked
     :class:`ChainResult`.
     """
     densities, states = [], []
@@ -317,15 +327,21 @@ def _run_parallel(
                 moments=moments,
             )
         )
-    _advance_in_segments(densities, states, n_jobs, blas_order, progress)
-    return _stacked_result(states, n_samples, keep_log_density)
+    _advance_in_segments(densities, states, n_jobs, blas_order, progress, stopping)
+    return _stacked_result(states, keep_log_density)
 
 
-def _advance_in_segments(densities, states, n_jobs, blas_order, progress):
+def _advance_in_segments(
+    densities, states, n_jobs, blas_order, progress, stopping=None
+):
     """Run the chains ``states`` to their end, replacing each by the state
-    its last task returned; the bar moves as each segment returns."""
-    total = states[0].total
+    its last task returned; the bar moves as each segment returns. At each
+    checkpoint of ``stopping`` that its rule finds met, the chains stop
+    there (:meth:`~skmba.mcmc._chain.Chain.stop`)."""
+    total, burn_in = states[0].total, states[0].burn_in
     segment = -(-total // _PROGRESS_SEGMENTS) if progress.enabled else total
+    checks = [] if stopping is None else stopping.checkpoints(burn_in, total)
+    ends = sorted({*range(segment, total, segment), *checks, total})
     done = [0] * len(states)
     # The chains' limit held here too: a thread-based backend runs them in
     # this process (see skmba._core.threads.BlasTask).
@@ -335,9 +351,7 @@ def _advance_in_segments(densities, states, n_jobs, blas_order, progress):
         ) as bar,
         blas_threads(blas_order, n_jobs),
     ):
-        until = 0
-        while until < total:
-            until = min(total, until + segment)
+        for until in ends:
             active = [c for c in range(len(states)) if done[c] < until]
             tasks = (
                 delayed(_advance)(densities[c], states[c], until, blas_order, n_jobs)
@@ -348,16 +362,45 @@ def _advance_in_segments(densities, states, n_jobs, blas_order, progress):
                 bar.update(state.steps - done[c])
                 _report_chain(progress, state, done[c])
                 done[c] = state.steps
+            if until in checks and stopping.met(
+                np.stack([state.samples[: state.drawn] for state in states])
+            ):
+                _stop(densities, states, n_jobs, blas_order)
+                bar.update(len(states) * total - sum(done))
+                progress.detail(
+                    f"chains stopped after {until - burn_in} draws each: the "
+                    f"target ESS {stopping.ess:g} is reached"
+                )
+                return
 
 
-def _stacked_result(states, n_samples, keep_log_density):
+def _stop(densities, states, n_jobs, blas_order):
+    """:meth:`~skmba.mcmc._chain.Chain.stop` on every chain, as joblib tasks
+    (a labelled chain evaluates its target at its draws)."""
+    tasks = (
+        delayed(_stop_task)(density, state, blas_order, n_jobs)
+        for density, state in zip(densities, states, strict=True)
+    )
+    states[:] = list(results_as_ready(tasks, n_jobs))
+
+
+def _stop_task(log_density, state, blas_order=0, n_jobs=None):
+    """``state.stop(log_density)`` under the chains' BLAS threads; returns it."""
+    with blas_threads(blas_order, n_jobs):
+        state.stop(log_density)
+    return state
+
+
+def _stacked_result(states, keep_log_density):
     """The :class:`ChainResult` of the finished chains ``states``."""
     return ChainResult(
         samples=np.stack([state.samples for state in states]),
         log_density=(
             np.stack([state.values for state in states]) if keep_log_density else None
         ),
-        acceptance_rate=np.array([state.n_accept / n_samples for state in states]),
+        acceptance_rate=np.array(
+            [state.n_accept / state.n_samples for state in states]
+        ),
         proposal_cov=np.stack([state.chol @ state.chol.T for state in states]),
         independence_rate=np.array([state.independence_rate for state in states]),
         labels=(

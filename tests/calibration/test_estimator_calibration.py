@@ -30,6 +30,7 @@ import skmba.calibration._pipeline as mba_module
 from skmba import ModularBayesCalibrator
 from skmba.datasets import make_cantilever
 from skmba.exceptions import FieldDataWarning, NonIdentifiabilityWarning
+from skmba.mcmc._stopping import EssTarget
 
 
 @pytest.mark.parametrize("treatment", ["plug-in", "propagate"])
@@ -1025,6 +1026,28 @@ def test_theta_chains_hold_the_mcmc_draws_and_go_with_quadrature():
     for name in ("theta_chains_", "acceptance_rate_", "rhat_", "ess_"):
         assert not hasattr(cal, name), name
     assert cal.theta_nodes_.shape[1] == 1
+
+
+def test_target_ess_ends_the_chains_early_on_the_full_run_s_first_draws():
+    """The default ``target_ess`` stops the chains once every parameter's
+    bulk and tail ESS reach it (R-hat <= 1.01); the draws are those of the
+    run at full length, cut."""
+    kwargs = dict(SMALL_MCMC, n_samples=3000, burn_in=200)
+    kwargs.update(sampler="mcmc", discrepancy_uncertainty="plug-in", random_state=1)
+    stopped = fit(BAD, target_ess=400, **kwargs)
+    full = fit(BAD, target_ess=None, **kwargs)
+    m = stopped.theta_chains_.shape[1]
+    assert m < 3000 and m % 250 == 0
+    assert full.theta_chains_.shape == (2, 3000, 1)
+    np.testing.assert_array_equal(stopped.theta_chains_, full.theta_chains_[:, :m])
+    np.testing.assert_array_equal(
+        stopped.theta_log_posterior_, full.theta_log_posterior_[:, :m]
+    )
+    assert stopped.ess_[0] >= 400 and stopped.rhat_[0] <= 1.01
+    assert EssTarget(400).met(stopped.theta_chains_)
+    assert not EssTarget(400).met(full.theta_chains_[:, : m - 250])
+    with pytest.raises(ValueError, match="target_ess"):
+        fit(BAD, target_ess=0, **kwargs)
 
 
 # --------------------------------------------------------------------- memory

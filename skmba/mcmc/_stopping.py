@@ -1,0 +1,88 @@
+"""When chains have drawn enough: a target effective sample size.
+
+:class:`EssTarget` is the rule by which :func:`skmba.mcmc._run.run_chains`
+ends its draws before ``n_samples``: at fixed checkpoints (every
+:attr:`EssTarget.every` draws per chain, the same whatever the segments or
+the processes of the run), the draws so far are judged, and the chains stop
+at the first checkpoint where every parameter's bulk and tail effective
+sample size (:func:`~skmba.mcmc._diagnostics.ess_bulk`,
+:func:`~skmba.mcmc._diagnostics.ess_tail`) reach the target and its split
+R-hat is at most :attr:`EssTarget.max_rhat`. Stopped there, a chain's draws
+are the first draws of a run that went on: the rule chooses a length, it
+does not change a draw. Why the calibrator stops at 2000 is in
+docs/internals.rst (section skmba.mcmc._stopping).
+
+Examples
+--------
+>>> import numpy as np
+>>> from skmba.mcmc._stopping import EssTarget
+>>> rule = EssTarget(ess=1000, every=250)
+>>> rule.checkpoints(burn_in=100, total=1100)
+[350, 600, 850]
+>>> draws = np.random.default_rng(0).normal(size=(4, 300, 2))
+>>> rule.met(draws), EssTarget(ess=1000).met(draws[:, :200])
+(True, False)
+"""
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from skmba.mcmc._diagnostics import ess_bulk, ess_tail, split_rhat
+
+
+@dataclass(frozen=True)
+class EssTarget:
+    """Stop the draws once they are worth ``ess`` independent draws.
+
+    Parameters
+    ----------
+    ess : float
+        The bulk and tail effective sample size each parameter must reach
+        (all chains together).
+    max_rhat : float, default=1.01
+        The split R-hat each parameter must not exceed (Vehtari et al.
+        2021's threshold).
+    every : int, default=250
+        Draws per chain between checkpoints; the first checkpoint is after
+        ``every`` draws.
+    """
+
+    ess: float
+    max_rhat: float = 1.01
+    every: int = 250
+
+    def checkpoints(self, burn_in, total):
+        """The steps (burn-in included) after which the draws are judged;
+        none at ``total``, where the chains end anyway."""
+        return list(range(burn_in + self.every, total, self.every))
+
+    def diagnostics(self, draws):
+        """Bulk ESS, tail ESS and split R-hat per parameter of ``draws`` of
+        shape (n_chains, n_draws, r): three arrays of shape (r,)."""
+        columns = [draws[:, :, j] for j in range(draws.shape[-1])]
+        return (
+            np.array([ess_bulk(c) for c in columns]),
+            np.array([ess_tail(c) for c in columns]),
+            np.array([split_rhat(c) for c in columns]),
+        )
+
+    def met(self, draws):
+        """Whether ``draws`` (n_chains, n_draws, r) meet the target (NaN
+        diagnostics, e.g. of a parameter that never moved, do not)."""
+        bulk, tail, rhat = self.diagnostics(draws)
+        return bool(
+            np.all(bulk >= self.ess)
+            and np.all(tail >= self.ess)
+            and np.all(rhat <= self.max_rhat)
+        )
+
+    def draws_needed(self, draws):
+        """A rough count of draws per chain for the target from ``draws``
+        (the ESS per draw so far), for messages; ``inf`` when unknown."""
+        bulk, tail, _ = self.diagnostics(draws)
+        worst = float(np.min(np.minimum(bulk, tail)))
+        if not math.isfinite(worst) or worst <= 0:
+            return math.inf
+        return math.ceil(self.ess / worst * draws.shape[1])

@@ -1,0 +1,125 @@
+"""Tests of the target-ESS stopping rule (skmba.mcmc._stopping) and of
+run_chains(stopping=...)."""
+
+import numpy as np
+import pytest
+
+from skmba.mcmc._diagnostics import ess_bulk, ess_tail, split_rhat
+from skmba.mcmc._run import run_chains
+from skmba.mcmc._stopping import EssTarget
+from tests.mcmc.test_run_chains import _GaussianMixture
+
+SCALES = np.array([10.0, 0.1])
+
+
+def gaussian(theta):
+    return -0.5 * float(np.sum((theta / SCALES) ** 2))
+
+
+STARTS = np.random.default_rng(0).normal(size=(4, 2)) * SCALES
+
+
+def run(**kwargs):
+    kwargs = {"n_samples": 3000, "burn_in": 500, "random_state": 0, **kwargs}
+    return run_chains(gaussian, STARTS, independence=0.9, **kwargs)
+
+
+@pytest.fixture(scope="module")
+def full():
+    return run()
+
+
+@pytest.mark.parametrize("n_jobs, verbose", [(None, 0), (2, 0), (None, 1)])
+def test_stopped_draws_are_the_first_draws_of_the_full_run(full, n_jobs, verbose):
+    stopped = run(stopping=EssTarget(2000), n_jobs=n_jobs, verbose=verbose)
+    m = stopped.samples.shape[1]
+    assert m < full.samples.shape[1]
+    np.testing.assert_array_equal(stopped.samples, full.samples[:, :m])
+    np.testing.assert_array_equal(stopped.log_density, full.log_density[:, :m])
+
+
+@pytest.mark.parametrize("target", [500, 2000, 5000])
+def test_the_chains_stop_at_the_first_checkpoint_that_meets_the_target(full, target):
+    rule = EssTarget(target)
+    stopped = run(stopping=rule)
+    m = stopped.samples.shape[1]
+    assert m % rule.every == 0
+    bulk, tail, rhat = rule.diagnostics(stopped.samples)
+    assert np.all(bulk >= target) and np.all(tail >= target)
+    assert np.all(rhat <= 1.01)
+    # One checkpoint earlier, the draws of the full run fall short.
+    assert not rule.met(full.samples[:, : m - rule.every])
+
+
+def test_a_target_out_of_reach_runs_to_n_samples(full):
+    stopped = run(stopping=EssTarget(1e6))
+    np.testing.assert_array_equal(stopped.samples, full.samples)
+    np.testing.assert_array_equal(stopped.acceptance_rate, full.acceptance_rate)
+
+
+def test_acceptance_rate_counts_the_draws_kept(full):
+    stopped = run(stopping=EssTarget(1000))
+    assert stopped.samples.shape[1] < 3000
+    # Every kept draw is the previous one (rejected) or a new point.
+    moved = np.any(np.diff(stopped.samples, axis=1) != 0, axis=2)
+    accepted = (moved.sum(axis=1) + 1) / stopped.samples.shape[1]
+    assert np.all(np.abs(stopped.acceptance_rate - accepted) <= 1.5 / 1000)
+
+
+def test_unmixed_chains_do_not_stop():
+    """Two chains, each in one of two separated modes: R-hat stays high at
+    every checkpoint, so they run on to n_samples although each chain alone
+    is worth more than the target."""
+    far = np.array([[-10.0], [10.0]])
+
+    def bimodal(theta):
+        return float(np.logaddexp(-0.5 * ((theta[0] - 10) / 0.1) ** 2,
+                                  -0.5 * ((theta[0] + 10) / 0.1) ** 2))  # fmt: skip
+
+    result = run_chains(bimodal, far, n_samples=1000, burn_in=200,
+                        random_state=0, stopping=EssTarget(100))  # fmt: skip
+    assert result.samples.shape[1] == 1000
+    assert result.rhat[0] > 1.5
+    assert all(ess_bulk(result.samples[c, :, 0]) > 100 for c in range(2))
+
+
+def test_labelled_chains_stopped_keep_the_mixture_log_density():
+    """A labelled chain evaluates the mixture at its draws at the end; a
+    stopped one does it at its stop."""
+    target = _GaussianMixture()
+    starts = np.random.default_rng(0).normal(size=(4, 2))
+    kwargs = {"n_samples": 3000, "burn_in": 1000, "independence": 0.9}
+    full = run_chains(_GaussianMixture(), starts, random_state=1, **kwargs)
+    assert full.labels is not None  # the chains stayed joint (labelled)
+    stopped = run_chains(target, starts, random_state=1, stopping=EssTarget(250),
+                         **kwargs)  # fmt: skip
+    m = stopped.samples.shape[1]
+    assert m < 3000
+    np.testing.assert_array_equal(stopped.samples, full.samples[:, :m])
+    np.testing.assert_array_equal(stopped.labels, full.labels[:, :m])
+    np.testing.assert_allclose(
+        stopped.log_density.ravel(), target.batch(stopped.pooled), rtol=1e-12
+    )
+
+
+def test_diagnostics_are_those_of_the_diagnostics_module():
+    draws = np.random.default_rng(3).normal(size=(4, 400, 2))
+    bulk, tail, rhat = EssTarget(100).diagnostics(draws)
+    for j in range(2):
+        assert bulk[j] == ess_bulk(draws[:, :, j])
+        assert tail[j] == ess_tail(draws[:, :, j])
+        assert rhat[j] == split_rhat(draws[:, :, j])
+
+
+def test_a_parameter_that_never_moved_does_not_meet_the_target():
+    draws = np.random.default_rng(4).normal(size=(4, 500, 2))
+    draws[:, :, 1] = 1.0
+    assert not EssTarget(10).met(draws)
+    assert EssTarget(10).draws_needed(draws) == np.inf
+
+
+def test_draws_needed_scales_the_draws_so_far():
+    draws = np.random.default_rng(5).normal(size=(4, 500, 1))
+    rule = EssTarget(4000)
+    worst = min(ess_bulk(draws[:, :, 0]), ess_tail(draws[:, :, 0]))
+    assert rule.draws_needed(draws) == int(np.ceil(4000 / worst * 500))
