@@ -375,8 +375,12 @@ def _advance_in_segments(
 
 
 def _stop(densities, states, n_jobs, blas_order):
-    """:meth:`~skmba.mcmc._chain.Chain.stop` on every chain, as joblib tasks
-    (a labelled chain evaluates its target at its draws)."""
+    """:meth:`~skmba.mcmc._chain.Chain.stop` on every chain: here, or as
+    joblib tasks where a labelled chain evaluates its target at its draws."""
+    if not any(state.labelled and state.keep_log_density for state in states):
+        for state in states:
+            state.stop(None)
+        return
     tasks = (
         delayed(_stop_task)(density, state, blas_order, n_jobs)
         for density, state in zip(densities, states, strict=True)
