@@ -24,7 +24,6 @@ Examples
 (True, False)
 """
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -77,12 +76,3 @@ class EssTarget:
             and np.all(tail >= self.ess)
             and np.all(rhat <= self.max_rhat)
         )
-
-    def draws_needed(self, draws):
-        """A rough count of draws per chain for the target from ``draws``
-        (the ESS per draw so far), for messages; ``inf`` when unknown."""
-        bulk, tail, _ = self.diagnostics(draws)
-        worst = float(np.min(np.minimum(bulk, tail)))
-        if not math.isfinite(worst) or worst <= 0:
-            return math.inf
-        return math.ceil(self.ess / worst * draws.shape[1])

@@ -115,11 +115,3 @@ def test_a_parameter_that_never_moved_does_not_meet_the_target():
     draws = np.random.default_rng(4).normal(size=(4, 500, 2))
     draws[:, :, 1] = 1.0
     assert not EssTarget(10).met(draws)
-    assert EssTarget(10).draws_needed(draws) == np.inf
-
-
-def test_draws_needed_scales_the_draws_so_far():
-    draws = np.random.default_rng(5).normal(size=(4, 500, 1))
-    rule = EssTarget(4000)
-    worst = min(ess_bulk(draws[:, :, 0]), ess_tail(draws[:, :, 0]))
-    assert rule.draws_needed(draws) == int(np.ceil(4000 / worst * 500))
