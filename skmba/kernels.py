@@ -127,6 +127,11 @@ class GeneralizedExp(ExponentialProfile):
     def _power(self):
         return float(np.ravel(self.power)[0])
 
+    @property
+    def roughness_power(self):
+        """float: ``power``, the power of distance the roughness multiplies."""
+        return self._power()
+
     def _zeta(self, absdiff, roughness, out=None):
         # ``out`` is not used: numpy's ``**`` takes fast paths (square,
         # sqrt) that ``np.power(..., out=)`` may not, and the values must
@@ -165,6 +170,11 @@ class Gauss(ExponentialProfile):
     >>> Gauss(roughness=[1, 2])
     Gauss(roughness=[1, 2])
     """
+
+    @property
+    def roughness_power(self):
+        """float: 2, the roughness multiplies the squared distance."""
+        return 2.0
 
     def _zeta(self, absdiff, roughness, out=None):
         zeta = np.square(absdiff, out=out)

@@ -116,7 +116,9 @@ def hyperparameter_space(cal):
         base.X_e,
         np.zeros((n, q)),
         np.zeros((n * q, n * q)),
-        prior=Hyperprior.from_spec(cal.discrepancy_prior),
+        prior=Hyperprior.from_spec(cal.discrepancy_prior).in_units(
+            cal.discrepancy_prior_units_
+        ),
         kernel=cal.discrepancy_kernel,
         regression=cal.discrepancy_regression,
         noise=cal.noise,

@@ -8,15 +8,20 @@ data are then distributed exactly as the calibrator's default model says,
 so that the ranks of theta* among its posterior draws are uniform when the
 inference is right (Talts et al. 2018).
 
-The prior is in the calibrator's standardised units: each design variable
-and response centred and scaled by its mean and (population) standard
-deviation over the simulations. The discrepancy is ``GP(0, Sigma_d ⊗
+The prior is in the calibrator's terms of the field data: each design
+variable centred and scaled by its (population) standard deviation over the
+distinct field inputs, each response scaled by the spread of the model's
+response over the field inputs and the prior of theta (the prior's
+32-node integration rule, as the calibrator's
+:func:`~skmba.calibration._module2_prior_integral.prior_units`, which
+measures it on the emulator; here it is measured on the model itself, so
+the two are computed independently). The discrepancy is ``GP(0, Sigma_d ⊗
 R_d)`` with ``Sigma_d = diag(sd) C diag(sd)`` and ``R_d = prod_j
 exp(-roughness_j (xs_j - xs'_j)^2)`` (:class:`skmba.kernels.Gauss`) on
-standardised inputs; its mean has a flat prior, under which the posterior
-does not depend on it, so it is drawn as zero. It is drawn once on a fine
-grid of the design variable and interpolated, so the field data and the
-held-out inputs of the predictive checks see one function.
+those standardised inputs; its mean has a flat prior, under which the
+posterior does not depend on it, so it is drawn as zero. It is drawn once
+on a fine grid of the design variable and interpolated, so the field data
+and the held-out inputs of the predictive checks see one function.
 
 ``sbc_a1`` and ``sbc_a2`` are the designs a1 and a2 of
 :mod:`validation.cases` (the same simulations and field inputs).
@@ -29,7 +34,9 @@ from __future__ import annotations
 import numpy as np
 from scipy import interpolate
 
+from skmba.calibration._module2_prior_integral import UNITS_NODES, UNITS_SEED
 from skmba.datasets import make_cantilever
+from skmba.priors import IndependentPrior
 from skmba.priors._hyperprior import Hyperprior
 from validation.cases import (
     A2_BOUNDS,
@@ -48,9 +55,24 @@ from validation.cases import (
 GRID = 400  # points of the discrepancy draw over the design variable's range
 
 
-def _standardise(A):
-    sd = A.std(axis=0)
-    return A.mean(axis=0), np.where(sd > 0, sd, 1.0)
+def field_units(model, X, prior):
+    """The prior's units in user units: the sd of each design variable over
+    the distinct field inputs ``X`` and, per response, the spread of
+    ``model`` over them and the prior's integration rule (``prior``: a list
+    of frozen scipy distributions)."""
+    X = np.unique(np.asarray(X, dtype=float), axis=0)
+    spread_x = X.std(axis=0)
+    nodes, weights = IndependentPrior(prior).integration_nodes(
+        UNITS_NODES, random_state=UNITS_SEED
+    )
+    n = len(X)
+    outputs = np.asarray(
+        model(np.tile(X, (len(nodes), 1)), np.repeat(nodes, n, axis=0)), dtype=float
+    ).reshape(len(nodes), n, -1)
+    w = weights[:, None, None] / n
+    centre = np.sum(w * outputs, axis=(0, 1))
+    spread_y = np.sqrt(np.sum(w * (outputs - centre) ** 2, axis=(0, 1)))
+    return X.mean(axis=0), spread_x, spread_y
 
 
 class DrawnReality:
@@ -68,15 +90,14 @@ class DrawnReality:
         return np.asarray(self.model(X, theta), dtype=float) + spline(X[:, 0])
 
 
-def draw_field_data(seed, model, theta, X, X_sim, y_sim, bounds):
+def draw_field_data(seed, model, theta, X, prior, bounds):
     """Hyperparameters, a discrepancy function and noise from the default prior.
 
     Returns the reality (a :class:`DrawnReality`), the noisy observations at
     ``X`` and the noise sd per response, in user units.
     """
-    q = y_sim.shape[1]
-    x_mean, x_scale = _standardise(X_sim)
-    _, y_scale = _standardise(y_sim)
+    x_mean, x_scale, y_scale = field_units(model, X, prior)
+    q = len(y_scale)
     draw = Hyperprior().rvs(X.shape[1], q, random_state=_rng(seed, 3))
     grid = np.linspace(*bounds[0], GRID)
     xs = (grid - x_mean[0]) / x_scale[0]
@@ -105,13 +126,7 @@ def case_sbc_a1(seed):
     lo, hi = data.prior[0].support()
     theta = np.array([lo + (hi - lo) * _rng(seed, 2).uniform()])
     reality, y, noise_sd = draw_field_data(
-        seed,
-        data.simulator,
-        theta,
-        data.X_obs,
-        data.X_sim,
-        data.y_sim,
-        CANTILEVER_X_BOUNDS,
+        seed, data.simulator, theta, data.X_obs, data.prior, CANTILEVER_X_BOUNDS
     )
     return Case(
         data.X_obs,
@@ -137,7 +152,7 @@ def case_sbc_a2(seed):
     theta = lo + (hi - lo) * _rng(seed, 2).uniform(size=2)
     y_sim = quadratic_model(X_sim, theta_sim)
     reality, y, noise_sd = draw_field_data(
-        seed, quadratic_model, theta, X, X_sim, y_sim, UNIT_X_BOUNDS
+        seed, quadratic_model, theta, X, _uniform_prior(A2_BOUNDS), UNIT_X_BOUNDS
     )
     return Case(
         X,

@@ -70,6 +70,16 @@ class DACECorrelation(StationaryKernelMixin, NormalizedKernelMixin, Kernel):
             )
         return Hyperparameter("roughness", "numeric", self.roughness_bounds)
 
+    @property
+    def roughness_power(self):
+        """float: the power of distance the roughness multiplies (1 here).
+
+        The roughness has units ``1 / length**roughness_power``: inputs
+        measured in units ``c`` times larger give the same correlation with
+        the roughness times ``c**roughness_power``.
+        """
+        return 1.0
+
     # -- family hooks -------------------------------------------------------
     #: True for profiles exp(-ζ), whose product and gradient have a fast form.
     _exponential = False

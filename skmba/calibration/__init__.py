@@ -24,7 +24,10 @@ file                               holds
 ``_simulations.py``                the simulation runs
 ``_module1_emulator.py``           module 1: the emulator, standardisation
 ``_module2_prior_integral.py``     module 2: the emulator integrated over
-                                   the prior (``integration``)
+                                   the prior (``integration``), the units
+                                   of the discrepancy prior
+``_module2_kernel.py``             the discrepancy correlation and its
+                                   roughness range in module 2's units
 ``_module2_plug_in.py``            module 2 by maximum likelihood
                                    (``discrepancy_uncertainty="plug-in"``)
 ``_module2_posterior.py``          module 2's posterior draws

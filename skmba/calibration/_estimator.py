@@ -65,9 +65,7 @@ from skmba.calibration._pipeline import (
     run_modules,
 )
 from skmba.calibration._settings import PARAMETER_TABLE, CalibrationSettings
-from skmba.calibration._simulations import (
-    kept_simulator_runs,
-)
+from skmba.calibration._simulations import kept_simulator_runs
 from skmba.calibration._summary import (
     CalibrationSummaryMixin,
     history_row,
@@ -168,10 +166,11 @@ class ModularBayesCalibrator(
         ``discrepancy_prior`` plugged into modules 3 and 4. The User Guide
         ("How honest are the intervals?") compares the two.
     discrepancy_prior : dict, default=None
-        In the standardised units of the simulations (inputs and responses
-        centred and scaled by their spread over the simulations). With
-        ``discrepancy_uncertainty="propagate"``, the prior (None: these
-        defaults; a missing key keeps its default)::
+        In the field data's terms: inputs scaled by their sd over the field
+        inputs, responses by the model's spread over those and the prior of
+        theta (``discrepancy_prior_summary()`` shows it in user units). With
+        "propagate", the prior (None: these defaults; a missing key keeps
+        its default)::
 
             {"sd_scale": 0.5,           # half-normal scale of each sd
              "correlation_eta": 2.0,    # LKJ prior of the correlation
@@ -235,16 +234,17 @@ class ModularBayesCalibrator(
     theta_mean_ : ndarray of shape (r,)
     theta_cov_ : ndarray of shape (r, r)
     acceptance_rate_, rhat_, ess_ : ndarray
-        MCMC diagnostics (n_chains,), (r,), (r,); only with MCMC. ``rhat_``
-        and ``ess_`` are the rank-normalised split R-hat and the bulk
-        effective sample size, equal to ArviZ's ``rhat`` and ``ess(method=
-        "bulk")`` (see the User Guide).
+        MCMC diagnostics (n_chains,), (r,), (r,); only with MCMC: ArviZ's
+        rank-normalised split ``rhat`` and bulk ``ess`` (User Guide).
     theta_mcse_ : ndarray of shape (4, r)
         Monte Carlo errors of the posterior mean, sd, 2.5 % and 97.5 % ends
         from the integral over the hyperparameters (``discrepancy_tol``);
         NaN where not estimated.
     discrepancy_draws_ : int
         Draws of the hyperparameters module 3 integrates over.
+    discrepancy_prior_units_ : PriorUnits
+        The terms ``discrepancy_prior`` is stated in, relative to the
+        standardised units: ``input_ratio`` (d,), ``response_ratio`` (q,).
     identifiability_ : ndarray of shape (r,)
         Per parameter, its linearised posterior sd without a discrepancy over
         that with a discrepancy of plausible size (each response's at the

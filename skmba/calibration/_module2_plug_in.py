@@ -36,7 +36,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy import linalg, optimize
-from sklearn.base import clone
 from sklearn.exceptions import ConvergenceWarning
 
 from skmba._core.linalg import (
@@ -56,7 +55,7 @@ from skmba._core.regression import regression_basis
 from skmba._core.validation import seed_sequence
 from skmba._core.warn import warn
 from skmba.calibration._field_replicates import noise_covariance
-from skmba.gp._estimator import default_kernel
+from skmba.calibration._module2_kernel import bounded_kernel
 
 DISCREPANCY_OPTIMIZERS = ("fmin_l_bfgs_b", "differential_evolution")
 _LOG_REL_NOISE = (np.log(1e-8), np.log(10.0))
@@ -64,47 +63,6 @@ _LOG_REL_NOISE = (np.log(1e-8), np.log(10.0))
 # each residual's standard deviation.
 _LOG_REL_SD = (np.log(1e-5), np.log(1e2))
 _CORR_FREE = (-1e2, 1e2)
-
-
-def bound_roughness(kernel, low, high, name="discrepancy_prior"):
-    """A clone of ``kernel`` whose roughness is optimised in ``[low, high]``.
-
-    A kernel whose roughness is ``"fixed"`` is returned unchanged.
-
-    Examples
-    --------
-    >>> from skmba.kernels import Gauss
-    >>> bound_roughness(Gauss(0.01), np.array([0.1]), np.array([9.0]))
-    Gauss(roughness=0.1)
-    """
-    params = kernel.get_params()
-    if "roughness" not in params:
-        raise TypeError(
-            f"{name}['roughness'] needs a discrepancy kernel with a 'roughness' "
-            f"hyperparameter (the kernels of skmba.kernels), got {kernel!r}; pass "
-            f"{name}={{'roughness': None}} to keep the kernel's own bounds."
-        )
-    if isinstance(params.get("roughness_bounds"), str):  # "fixed"
-        return kernel
-    roughness = np.asarray(params["roughness"], dtype=float)
-    if roughness.ndim == 0:
-        if np.ptp(low) > 0 or np.ptp(high) > 0:
-            raise ValueError(
-                f"{name}['roughness'] gives one range per design variable but "
-                f"the kernel {kernel!r} is isotropic; give it one roughness per "
-                "design variable or use one range."
-            )
-        bounds = (float(low[0]), float(high[0]))
-        start = float(np.clip(roughness, *bounds))
-    else:
-        if roughness.size != low.size:
-            raise ValueError(
-                f"The discrepancy kernel {kernel!r} has {roughness.size} "
-                f"roughnesses for {low.size} design variables."
-            )
-        bounds = np.column_stack([low, high])
-        start = np.clip(roughness, low, high)
-    return clone(kernel).set_params(roughness=start, roughness_bounds=bounds)
 
 
 @dataclass(frozen=True)
@@ -168,8 +126,9 @@ class DiscrepancyFit:
         than relative to each column's spread.
     fixed_noise : float, default=None
         Hold the noise at this many times each response's variance.
-    log_noise_bounds : pair of float, default=None
-        Bounds of the log relative noise variances (None: 1e-8 to 10).
+    log_noise_bounds : pair of float or array of shape (q, 2), default=None
+        Bounds of the log relative noise variances, for all responses or
+        per response (None: 1e-8 to 10).
     free_sd : bool, default=False
         No bounds on the log discrepancy standard deviations (a prior
         bounds them instead).
@@ -222,9 +181,10 @@ class DiscrepancyFit:
         self.log_sd_bounds = np.tile(_LOG_REL_SD, (self.q, 1))
         if free_sd:
             self.log_sd_bounds[:] = (-np.inf, np.inf)
-        self.log_noise_bounds = (
-            _LOG_REL_NOISE if log_noise_bounds is None else tuple(log_noise_bounds)
-        )
+        self.log_noise_bounds = np.broadcast_to(
+            _LOG_REL_NOISE if log_noise_bounds is None else log_noise_bounds,
+            (self.q, 2),
+        ).astype(float)
         self.floor = np.zeros(self.q)
         if variance_bounds is not None:
             lo, hi = (np.broadcast_to(v, (self.q,)) for v in variance_bounds)
@@ -265,9 +225,9 @@ class DiscrepancyFit:
         parts = [self.kernel.bounds if self.n_kernel else np.zeros((0, 2))]
         noise = self.log_noise_bounds
         if self.fixed_noise is not None:
-            noise = (np.log(self.fixed_noise),) * 2
+            noise = np.full((self.q, 2), np.log(self.fixed_noise))
         parts += [
-            np.tile(noise, (self.q, 1)),
+            noise,
             self.log_sd_bounds,
             np.tile(_CORR_FREE, (len(self.rows), 1)),
         ]
@@ -493,21 +453,6 @@ def check_module2_memory(kernel, residual):
     )
 
 
-def discrepancy_kernel(kernel, X):
-    """The discrepancy correlation: a clone of ``kernel``, or the default.
-
-    None gives the anisotropic :class:`~skmba.kernels.Gauss` scaled to the
-    standardised field inputs ``X`` (:func:`~skmba.gp._estimator.default_kernel`).
-
-    Examples
-    --------
-    >>> from skmba.kernels import Exp
-    >>> discrepancy_kernel(Exp(2.0), np.zeros((3, 1))).roughness
-    2.0
-    """
-    return default_kernel(X) if kernel is None else clone(kernel)
-
-
 def fit_discrepancy(
     X_e,
     residual,
@@ -516,6 +461,7 @@ def fit_discrepancy(
     kernel=None,
     regression="constant",
     ranges=None,
+    units=None,
     noise=True,
     optimizer="fmin_l_bfgs_b",
     n_restarts=0,
@@ -537,12 +483,17 @@ def fit_discrepancy(
     V_fixed : ndarray of shape (n q, n q)
         The prior-integrated emulator covariance.
     kernel : sklearn Kernel or None
-        Discrepancy correlation (see :func:`discrepancy_kernel`).
+        Discrepancy correlation (see
+        :func:`~skmba.calibration._module2_kernel.discrepancy_kernel`).
     regression : {"constant", "linear", "quadratic"}
     ranges : dict or None
         As returned by
         :func:`~skmba.priors._table_6_2.check_discrepancy_ranges` (for all
         responses); the likelihood is maximised within them.
+    units : PriorUnits, default=None
+        The units ``ranges`` are stated in
+        (:class:`~skmba.priors._hyperprior.PriorUnits`, for all responses);
+        None: those of ``X_e`` and ``residual``.
     noise : bool
         Estimate the noise; False holds it at a negligible nugget.
     optimizer : {"fmin_l_bfgs_b", "differential_evolution"}
@@ -568,10 +519,12 @@ def fit_discrepancy(
     DiscrepancyFit
         The optimised fit (``kernel_``, ``sigma2``, ``noise``, ``beta``).
     """
-    kernel_d = discrepancy_kernel(kernel, X_e)
-    if ranges is not None and ranges["roughness"] is not None:
-        kernel_d = bound_roughness(kernel_d, *ranges["roughness"])
+    kernel_d = bounded_kernel(
+        kernel, X_e, None if ranges is None else ranges["roughness"], units
+    )
     variance = None if ranges is None else ranges["variance"]
+    if variance is not None and units is not None:
+        variance = tuple(units.response(v, 2) for v in variance)
     if variance is not None and responses is not None:
         variance = tuple(v[list(responses)] for v in variance)
     check_module2_memory(kernel_d, residual)

@@ -48,12 +48,8 @@ from skmba._core.linalg import FactorizationError, proposal_covariance
 from skmba._core.progress import as_progress, start_reporter
 from skmba._core.regression import regression_basis
 from skmba._core.validation import seed_sequence
-from skmba.calibration._module2_plug_in import (
-    DiscrepancyFit,
-    bound_roughness,
-    check_module2_memory,
-    discrepancy_kernel,
-)
+from skmba.calibration._module2_kernel import bounded_kernel, discrepancy_kernel
+from skmba.calibration._module2_plug_in import DiscrepancyFit, check_module2_memory
 from skmba.priors._hyperprior import lkj_correlation
 
 #: Degrees of freedom of the Student-t importance proposal.
@@ -323,12 +319,12 @@ def _posterior_coordinates(
     """The restricted likelihood of module 2 under ``prior``, in the
     unbounded coordinates of :class:`_Coordinates`."""
     kernel_d = discrepancy_kernel(kernel, X_e)
-    if "roughness" in kernel_d.get_params() and prior.roughness is not None:
-        lo, hi = (np.full(X_e.shape[1], v) for v in prior.roughness)
-        kernel_d = bound_roughness(kernel_d, lo, hi)
+    if "roughness" in kernel_d.get_params():
+        kernel_d = bounded_kernel(kernel, X_e, prior.roughness, prior.units)
     check_module2_memory(kernel_d, residual)
     H_d = regression_basis(X_e, regression)
-    prior.scales(residual.shape[1])  # one sd_scale per response, or one
+    q = residual.shape[1]
+    prior.scales(q)  # one sd_scale per response, or one
     fit = DiscrepancyFit(
         kernel_d,
         X_e,
@@ -340,7 +336,7 @@ def _posterior_coordinates(
         restricted=True,
         unit_scale=True,
         fixed_noise=None if noise else 1e-10,
-        log_noise_bounds=np.log(prior.noise) if noise else None,
+        log_noise_bounds=np.log(prior.noise_bounds(q)) if noise else None,
         free_sd=True,
         replicates=replicates,
     )
@@ -487,7 +483,7 @@ def fit_hyperposterior(
     prior : Hyperprior
     kernel : sklearn Kernel or None
         Discrepancy correlation (see
-        :func:`~skmba.calibration._module2_plug_in.discrepancy_kernel`); the kernels of
+        :func:`~skmba.calibration._module2_kernel.discrepancy_kernel`); the kernels of
         :mod:`skmba.kernels` get the prior's roughness range as bounds.
     regression : {"constant", "linear", "quadratic"}
     noise : bool

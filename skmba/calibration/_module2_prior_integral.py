@@ -22,7 +22,10 @@ which tells the discrepancy GP how much of the field data the unknown
 The integrals use the prior's nodes and weights (Gauss-Legendre on the
 prior quantiles for one parameter, scrambled Sobol points for several, see
 :mod:`skmba.priors._theta`), vectorised over nodes and parallel over blocks of
-nodes through joblib.
+nodes through joblib. :func:`prior_units` measures, with the same nodes,
+the spread of the model's response over the field inputs and the prior:
+the unit the discrepancy prior's size is stated in
+(:class:`~skmba.priors._hyperprior.PriorUnits`).
 
 Examples
 --------
@@ -41,11 +44,17 @@ from joblib import Parallel, delayed
 from skmba._core.linalg import FEWER_FIELD_DATA, FLOAT_BYTES, check_memory, n_workers
 from skmba._core.threads import BlasTask
 from skmba._core.warn import warn
+from skmba.priors._hyperprior import PriorUnits
 
 MODULE2_VARIANCES = ("total", "conditional")
 INTEGRATIONS = ("auto", "quadrature", "qmc")
 #: Default number of integration nodes per rule.
 DEFAULT_NODES = {"quadrature": 32, "qmc": 256}
+
+#: Nodes of the prior over which :func:`prior_units` measures the model's
+#: spread (a fixed rule: the prior's units never depend on ``random_state``).
+UNITS_NODES = 32
+UNITS_SEED = 0
 
 # Bytes of the (k, n, n) correlation temporaries of one block of nodes: the
 # number of nodes per block is lowered so that they stay below this.
@@ -308,3 +317,37 @@ def integrate_over_prior(
     if variance == "total":
         V = V + spread
     return IntegratedEmulator(mean, repair_psd(V))
+
+
+def prior_units(emulator, scaler, prior, X_e):
+    """The field data's units of the discrepancy prior
+    (:class:`~skmba.priors._hyperprior.PriorUnits`).
+
+    Per design variable, the ratio of the simulations' standard deviation
+    to that of the distinct standardised field inputs ``X_e`` (1 where
+    they do not vary); per response, the spread of the emulator mean over
+    ``X_e`` and :data:`UNITS_NODES` nodes of the prior of theta (standard
+    deviation under equal weights over the inputs and the prior's
+    weights), in the simulations' standardised units (1 where the model
+    does not vary). Both depend on the field inputs, the prior and the
+    model, not on the simulation design.
+    """
+    X_e = np.unique(np.asarray(X_e, dtype=float), axis=0)
+    spread_x = X_e.std(axis=0)
+    input_ratio = np.where(spread_x > 0, 1.0 / np.where(spread_x > 0, spread_x, 1), 1)
+    nodes, weights = prior.integration_nodes(UNITS_NODES, random_state=UNITS_SEED)
+    thetas = scaler.theta(nodes)
+    # Blocks of nodes keep the (N, k n) cross-correlations small.
+    block = max(1, BLOCK_BYTES // (FLOAT_BYTES * emulator.N * len(X_e)))
+    means = np.concatenate(
+        [
+            emulator.conditional(X_e, thetas[i : i + block]).mean()
+            for i in range(0, len(thetas), block)
+        ]
+    )  # (k, n, q)
+    w = weights[:, None, None] / len(X_e)
+    centre = np.sum(w * means, axis=(0, 1))
+    spread_y = np.sqrt(np.sum(w * (means - centre) ** 2, axis=(0, 1)))
+    tiny = 1e-12 * max(1.0, float(np.max(np.abs(centre))))
+    response_ratio = np.where(spread_y > tiny, spread_y, 1.0)
+    return PriorUnits(tuple(input_ratio), tuple(response_ratio))

@@ -31,6 +31,7 @@ True
 
 import time
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -49,6 +50,7 @@ from skmba.calibration._module2_prior_integral import (
     integrate_over_prior,
     integrate_over_rule,
     one_parameter_rule,
+    prior_units,
 )
 from skmba.calibration._module3_identifiability import identifiability, robust_interval
 from skmba.calibration._module3_likelihood import GlobalModel
@@ -102,6 +104,14 @@ class ModuleInputs:
     progress: object
     replicates: object = None
     warm: object = None
+
+    @cached_property
+    def units(self):
+        """The field data's units of the discrepancy prior (a
+        :class:`~skmba.priors._hyperprior.PriorUnits`): the field inputs'
+        spread and the model's spread over them and the prior of theta,
+        relative to the simulations'."""
+        return prior_units(self.emulator, self.scaler, self.prior, self.Xs)
 
 
 @dataclass(frozen=True)
@@ -237,8 +247,8 @@ def run_modules(
             random_state=seeds[1],
         )
     if propagate:
-        module2, module3 = _propagated(inputs, integrated, module2_spec, seeds)
-        hyperprior = module2_spec
+        hyperprior = module2_spec.in_units(inputs.units)
+        module2, module3 = _propagated(inputs, integrated, hyperprior, seeds)
     else:
         if settings.discrepancy_tol is not None:
             warn(
@@ -250,7 +260,7 @@ def run_modules(
         module2 = _plug_in(inputs, integrated, module2_spec, seeds[2], started)
         earlier = None if inputs.warm is None else inputs.warm.module3.posterior
         module3 = fit_module3(inputs, module2, seeds[3], earlier=earlier)
-        hyperprior = Hyperprior()
+        hyperprior = Hyperprior(units=inputs.units)
     probe = identifiability(
         module3.log_post.model.base,
         scaler.theta(module3.posterior.mean),
@@ -267,6 +277,7 @@ def _plug_in(inputs, integrated, ranges, seed, started):
         integrated.cov,
         **inputs.settings.discrepancy.kwargs(),
         ranges=ranges,
+        units=inputs.units,
         random_state=seed,
         progress=inputs.progress,
         replicates=inputs.replicates,
@@ -516,6 +527,7 @@ def fitted_attributes(result, prior):
         "global_model_": result.module3.log_post.model,
         "theta_mcse_": _mcse(result.module3.error, len(posterior.mean)),
         "discrepancy_draws_": len(result.module2.components),
+        "discrepancy_prior_units_": result.inputs.units,
     }
     if posterior.method == "quadrature":
         out["theta_nodes_"], out["theta_weights_"] = posterior.nodes, posterior.weights

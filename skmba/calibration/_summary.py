@@ -55,7 +55,7 @@ CALIBRATION_COLUMNS = (
 
 
 #: The columns of the calibrator's ``discrepancy_prior_summary()``.
-PRIOR_COLUMNS = ("prior_2.5%", "prior_97.5%", "fitted", "field_spread")
+PRIOR_COLUMNS = ("prior_2.5%", "prior_97.5%", "fitted", "field_spread", "prior_unit")
 
 
 def _log_uniform_quantiles(bounds, p=(0.025, 0.975)):
@@ -268,20 +268,22 @@ class CalibrationSummaryMixin:
     def discrepancy_prior_summary(self):
         """The discrepancy and noise prior in the user's units, with the fit.
 
-        The prior of module 2 is stated in the simulations' standardised
-        units (``discrepancy_prior``); this table says what it means for
-        these data. Rows: ``length_scale[<input>]`` per design variable (the
+        The prior of module 2 (``discrepancy_prior``) is stated in the
+        field data's terms; this table says what it means in the user's
+        units. Rows: ``length_scale[<input>]`` per design variable (the
         distance over which the discrepancy's correlation falls to
-        ``exp(-1/2)``, ``1 / sqrt(2 roughness)`` of the Gauss kernel times
-        the input's scale ``X_scale_``; NaN for another kernel),
+        ``exp(-1/2)``, ``1 / sqrt(2 roughness)`` of the Gauss kernel in the
+        input's units; NaN for another kernel),
         ``sd[<response>]`` (the discrepancy's sd) and ``noise_sd[<response>]``
         per response. Columns: ``prior_2.5%`` and ``prior_97.5%`` (with
         ``discrepancy_uncertainty="plug-in"``: the ends of its range),
         ``fitted`` (module 2's mode, as ``discrepancy_kernel_``,
         ``discrepancy_sigma2_`` and ``noise_``) and, for scale,
         ``field_spread``: the range of the field inputs, the sd of the
-        field responses. Read more in the User Guide ("What the
-        discrepancy prior means in your units").
+        field responses; ``prior_unit``: the unit the prior is stated in
+        (the sd of the distinct field inputs; the spread of the model's
+        response over them and the prior of theta). Read more in the User
+        Guide ("What the discrepancy prior means in your units").
 
         Returns
         -------
@@ -292,7 +294,8 @@ class CalibrationSummaryMixin:
         X = np.asarray(self.X_obs_, dtype=float)
         Y = np.asarray(self.y_obs_, dtype=float).reshape(len(X), -1)
         d, q = X.shape[1], Y.shape[1]
-        lengths, sds, noise = self._prior_quantiles(d, q)
+        units = self.discrepancy_prior_units_
+        lengths, sds, noise = self._prior_quantiles(d, q, units)
         kernel = self.discrepancy_kernel_
         fitted_length = (
             self.X_scale_ / np.sqrt(2.0 * np.asarray(kernel.roughness, float))
@@ -304,40 +307,57 @@ class CalibrationSummaryMixin:
         rows = [f"length_scale[{n}]" for n in inputs]
         rows += [f"sd[{n}]" for n in responses] + [f"noise_sd[{n}]" for n in responses]
         spread_y = np.nanstd(Y, axis=0)
+        unit_x = self.X_scale_ / np.asarray(units.input_ratio)
+        unit_y = self.y_scale_ * np.asarray(units.response_ratio)
         columns = np.vstack(
             [
                 np.column_stack(
-                    [lengths, np.broadcast_to(fitted_length, d), np.ptp(X, 0)]
+                    [lengths, np.broadcast_to(fitted_length, d), np.ptp(X, 0), unit_x]
                 ),
                 np.column_stack(
-                    [sds, np.sqrt(np.diag(self.discrepancy_sigma2_)), spread_y]
+                    [sds, np.sqrt(np.diag(self.discrepancy_sigma2_)), spread_y, unit_y]
                 ),
-                np.column_stack([noise, np.sqrt(self.noise_), spread_y]),
+                np.column_stack([noise, np.sqrt(self.noise_), spread_y, unit_y]),
             ]
         )
         return table("quantity", rows, dict(zip(PRIOR_COLUMNS, columns.T, strict=True)))
 
-    def _prior_quantiles(self, d, q):
+    def _prior_quantiles(self, d, q, units):
         """The prior's 2.5 % and 97.5 % points (plug-in: its range) in user
         units: length scales (d, 2), discrepancy sds (q, 2), noise sds (q, 2)."""
         if self.discrepancy_uncertainty == "propagate":
-            prior = Hyperprior.from_spec(self.discrepancy_prior)
-            roughness = _log_uniform_quantiles(prior.roughness)[::-1]
+            prior = Hyperprior.from_spec(self.discrepancy_prior).in_units(units)
+            bounds = prior.roughness_bounds(d)
+            roughness = (
+                np.full((d, 2), np.nan)
+                if bounds is None
+                else np.column_stack(
+                    [_log_uniform_quantiles(b)[::-1] for b in np.transpose(bounds)]
+                ).T
+            )
             sd = stats.halfnorm.ppf([[0.025, 0.975]]) * prior.scales(q)[:, None]
-            noise = np.sqrt(_log_uniform_quantiles(prior.noise))[None, :]
+            noise = np.sqrt(
+                np.vstack([_log_uniform_quantiles(b) for b in prior.noise_bounds(q)])
+            )
         else:
             ranges = check_discrepancy_ranges(self.discrepancy_prior, d, q)
             rough = ranges["roughness"]
             roughness = (
                 np.full((d, 2), np.nan)
                 if rough is None
-                else np.column_stack(np.broadcast_arrays(rough[1], rough[0]))
+                else np.column_stack(
+                    np.broadcast_arrays(*(units.roughness(b, 2) for b in rough[::-1]))
+                )
             )
             var = ranges["variance"]
             sd = (
                 np.full((q, 2), np.nan)
                 if var is None
-                else np.sqrt(np.column_stack(np.broadcast_arrays(*var)))
+                else np.sqrt(
+                    np.column_stack(
+                        np.broadcast_arrays(*(units.response(v, 2) for v in var))
+                    )
+                )
             )
             noise = np.full((q, 2), np.nan)
         lengths = self.X_scale_[:, None] / np.sqrt(2.0 * np.atleast_2d(roughness))

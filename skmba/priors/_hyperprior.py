@@ -1,25 +1,31 @@
 """The default prior of the module-2 hyperparameters (discrepancy and noise).
 
-In the standardised units of the simulations (each design variable and each
-response centred and scaled by its spread over the simulations), the
+The prior is stated in the terms of the field data (:class:`PriorUnits`):
+each design variable centred and scaled by its standard deviation over the
+distinct field inputs, each response scaled by the spread of the model's
+response over the field inputs and the prior of theta. There, the
 discrepancy ``delta ~ GP(H_d beta_d, Sigma_d ⊗ R_d(omega))`` and the noise
 ``eps ~ N(0, Lambda)`` have the weakly informative prior
 
 * ``sd_j = sqrt(Sigma_d[j, j])``: half-normal with scale ``sd_scale`` (0.5:
-  a discrepancy as large as the whole spread of the simulations has prior
-  probability 4.6 %), independently per response;
+  a discrepancy as large as the model's whole spread over the field
+  inputs and the prior has prior probability 4.6 %), independently per
+  response;
 * the correlation ``Sigma_d[i, j] / (sd_i sd_j)``: LKJ(``eta``) (Lewandowski,
   Kurowicka & Joe 2009), ``eta = 2`` leaning gently towards independent
   discrepancies;
 * the roughness ``omega``: log-uniform on thesis Table 6.2's range, 0.1 to
   9 per design variable (any other kernel hyperparameter: log-uniform within
-  the kernel's bounds);
+  the kernel's bounds, in module 2's units);
 * the noise variance ``Lambda[j, j]``: log-uniform from 1e-6 to 1;
 * ``beta_d``: flat (integrated out, restricted likelihood).
 
-:class:`Hyperprior` holds these numbers once; module 2
-(:mod:`skmba.calibration._module2_posterior`) uses its log density, the validation suite
-its draws.
+Module 2 works in the simulations' standardised units; :class:`PriorUnits`
+holds the ratios that carry the prior there, so that the prior, and the
+result, do not change when only the simulation design does. :class:`Hyperprior`
+holds these numbers once; module 2
+(:mod:`skmba.calibration._module2_posterior`) uses its log density, the
+validation suite its draws.
 
 Examples
 --------
@@ -32,7 +38,7 @@ Examples
 True
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy import special, stats
@@ -46,8 +52,61 @@ HYPERPRIOR_KEYS = ("sd_scale", "correlation_eta", "roughness", "noise")
 
 
 @dataclass(frozen=True)
+class PriorUnits:
+    """The field data's units of the hyperprior, relative to module 2's.
+
+    Module 2 standardises inputs and responses by the simulations; the
+    prior is stated with inputs scaled by the field inputs' spread and
+    responses by the model's spread at the field inputs. A distance in
+    module 2's units times ``input_ratio`` is one in the prior's; a
+    response in the prior's units times ``response_ratio`` is one in
+    module 2's.
+
+    Parameters
+    ----------
+    input_ratio : tuple of float, length d
+        Per design variable, the simulations' standard deviation over the
+        field inputs' (1 where the field inputs do not vary).
+    response_ratio : tuple of float, length q
+        Per response, the model's spread over the field inputs and the
+        prior of theta over the simulations' standard deviation.
+
+    Examples
+    --------
+    >>> units = PriorUnits(input_ratio=(2.0,), response_ratio=(0.5, 1.0))
+    >>> units.roughness(0.1, 2.0).tolist()  # Gauss: 1 / length**2
+    [0.4]
+    """
+
+    input_ratio: tuple
+    response_ratio: tuple
+
+    def __post_init__(self):
+        for name in ("input_ratio", "response_ratio"):
+            value = np.asarray(getattr(self, name), dtype=float)
+            if value.ndim != 1 or not np.all(np.isfinite(value) & (value > 0)):
+                raise ValueError(f"{name} must be positive and finite, got {value}.")
+            object.__setattr__(self, name, tuple(value.tolist()))
+
+    def roughness(self, value, power):
+        """A roughness of the prior's units in module 2's, per input (d,)."""
+        return np.asarray(value, dtype=float) * np.asarray(self.input_ratio) ** power
+
+    def response(self, value, power=1):
+        """A response quantity of the prior's units in module 2's, per
+        response: a mean (``power=1``) or a variance (``power=2``)."""
+        ratio = np.asarray(self.response_ratio)
+        return np.asarray(value, dtype=float) * ratio**power
+
+    def restrict(self, responses):
+        """The units of some responses only."""
+        ratio = np.asarray(self.response_ratio)[list(responses)]
+        return PriorUnits(self.input_ratio, tuple(ratio.tolist()))
+
+
+@dataclass(frozen=True)
 class Hyperprior:
-    """Prior of the discrepancy and noise hyperparameters (standardised units).
+    """Prior of the discrepancy and noise hyperparameters.
 
     Parameters
     ----------
@@ -65,12 +124,31 @@ class Hyperprior:
         (draws of the prior, :meth:`rvs`, then need a range).
     noise : tuple, default=(1e-6, 1.0)
         Range of the log-uniform prior of the noise variances.
+    units : PriorUnits, default=None
+        The field data's units the numbers above are stated in, relative
+        to module 2's standardised units (:meth:`in_units`); None: module
+        2's units themselves.
     """
 
     sd_scale: float = 0.5
     correlation_eta: float = 2.0
     roughness: tuple = ROUGHNESS_RANGE
     noise: tuple = (1e-6, 1.0)
+    units: PriorUnits = None
+
+    def in_units(self, units):
+        """This prior, stated in ``units`` (a :class:`PriorUnits`)."""
+        return replace(self, units=units)
+
+    def restrict(self, responses):
+        """The prior of some responses (columns) only."""
+        responses = list(responses)
+        scale = np.asarray(self.sd_scale, dtype=float)
+        return replace(
+            self,
+            sd_scale=scale[responses] if scale.ndim else self.sd_scale,
+            units=None if self.units is None else self.units.restrict(responses),
+        )
 
     @classmethod
     def from_spec(cls, spec, name="discrepancy_prior"):
@@ -112,14 +190,32 @@ class Hyperprior:
         return prior
 
     def scales(self, q, name="discrepancy_prior"):
-        """``sd_scale`` for ``q`` responses (checked)."""
+        """``sd_scale`` for ``q`` responses (checked), in module 2's units."""
         scale = np.asarray(self.sd_scale, dtype=float)
         if scale.ndim == 1 and scale.size != q:
             raise ValueError(
                 f"{name}['sd_scale'] has {scale.size} values for {q} responses; "
                 "give one per response or a single number."
             )
-        return np.broadcast_to(scale, (q,))
+        scale = np.broadcast_to(scale, (q,))
+        return scale if self.units is None else self.units.response(scale)
+
+    def noise_bounds(self, q):
+        """The noise variances' range per response (q, 2), module 2's units."""
+        bounds = np.tile(np.asarray(self.noise, dtype=float), (q, 1))
+        return bounds if self.units is None else self.units.response(bounds.T, 2).T
+
+    def roughness_bounds(self, d, power=2.0):
+        """The roughness range per input, ``(low (d,), high (d,))`` in module
+        2's units for a kernel whose roughness multiplies ``distance**power``
+        (:attr:`skmba.kernels.Gauss.roughness_power`); None when this prior
+        has no range (the kernel's own bounds)."""
+        if self.roughness is None:
+            return None
+        lo, hi = (np.full(d, float(v)) for v in self.roughness)
+        if self.units is None:
+            return lo, hi
+        return self.units.roughness(lo, power), self.units.roughness(hi, power)
 
     # -------------------------------------------------- log densities
     def log_sd(self, log_sd):
@@ -164,28 +260,30 @@ class Hyperprior:
         return value + float(np.sum(np.log(np.sqrt(2.0 / np.pi) / scale)))
 
     # -------------------------------------------------- draws
-    def rvs(self, d, q, random_state=None, roughness_bounds=None):
-        """One draw of the hyperparameters (standardised units).
+    def rvs(self, d, q, random_state=None, roughness_bounds=None, power=2.0):
+        """One draw of the hyperparameters (module 2's units).
 
         Returns a dict: ``roughness`` (d,), ``sd`` (q,), ``correlation``
         (q, q) and ``noise`` (q,) variances. ``roughness_bounds`` (``(low,
         high)``, each a number or (d,)) is the range of the roughness when
-        this prior's ``roughness`` is None (the kernel's own bounds).
+        this prior's ``roughness`` is None (the kernel's own bounds);
+        ``power`` the kernel's :attr:`~skmba.kernels.Gauss.roughness_power`.
         """
         rng = np.random.default_rng(seed_sequence(random_state))
         log_uniform = stats.loguniform
-        bounds = self.roughness if self.roughness is not None else roughness_bounds
+        bounds = self.roughness_bounds(d, power) or roughness_bounds
         if bounds is None:
             raise ValueError(
                 "discrepancy_prior['roughness'] is None (the kernel's own bounds): "
                 "drawing the prior needs the kernel's roughness_bounds."
             )
         lo, hi = (np.broadcast_to(np.asarray(b, dtype=float), (d,)) for b in bounds)
+        noise = self.noise_bounds(q)
         return {
             "roughness": log_uniform.rvs(lo, hi, size=d, random_state=rng),
             "sd": np.abs(rng.normal(0.0, self.scales(q), q)),
             "correlation": lkj_correlation(q, self.correlation_eta, rng),
-            "noise": log_uniform.rvs(*self.noise, size=q, random_state=rng),
+            "noise": log_uniform.rvs(noise[:, 0], noise[:, 1], random_state=rng),
         }
 
     def sd_quantile(self, level, q=1):

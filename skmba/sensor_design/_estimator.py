@@ -93,10 +93,11 @@ class PreposteriorDesigner(BaseEstimator):
     discrepancy_prior : dict, default=None
         With ``discrepancy_uncertainty="propagate"``, the calibrator's
         hyperprior (keys ``sd_scale``, ``correlation_eta``, ``roughness``,
-        ``noise``; None: its defaults). With ``"plug-in"``, uniform priors
-        of the discrepancy GP, in the standardised units of the
-        simulations (inputs and responses centred and scaled to unit
-        variance), as in thesis Table 6.2 (the default)::
+        ``noise``; None: its defaults), in the design's terms as the
+        calibrator's. With ``"plug-in"``, uniform priors of the discrepancy
+        GP, with inputs scaled by their sd over the field design and
+        responses by the model's spread over it and the prior, as thesis
+        Table 6.2's (the default)::
 
             {"roughness": (0.1, 9.0),      # per design variable
              "variance": (1e-2, 20.0),     # diagonal of Sigma_d, per response
@@ -194,11 +195,12 @@ class PreposteriorDesigner(BaseEstimator):
     prior_units : {"standardised", "user"}, default="standardised"
         Units of the ``variance`` and ``mean`` of ``discrepancy_prior`` and of
         ``noise_prior``. ``"standardised"``: relative to each response's
-        spread in the simulations (variances as fractions of the response's
-        variance), so that the same prior means the same *relative*
-        discrepancy for every sensor. ``"user"``: in the units of ``y``
-        (squared for variances), e.g. "up to 0.5 mm of discrepancy on every
-        displacement gauge". The roughness is always in standardised inputs.
+        spread in the model over the field design and the prior (variances
+        as fractions of its square), so that the same prior means the same
+        *relative* discrepancy for every sensor. ``"user"``: in the units of
+        ``y`` (squared for variances), e.g. "up to 0.5 mm of discrepancy on
+        every displacement gauge". The roughness is always relative to the
+        field design's inputs.
     module2_max_iter : int or None, default=200
         Largest number of L-BFGS-B iterations of each module-2 fit (phase 1,
         or every subset with ``fast=False``). Each fit starts from the
@@ -407,6 +409,7 @@ class PreposteriorDesigner(BaseEstimator):
             (seeds[1], seeds[3]),
             fast=self.fast,
             module2_max_iter=self.module2_max_iter,
+            user_units=self.prior_units == "user",
         )
         prior_cov = prior.cov()
         self._log("step 1: emulator and prior-integrated emulator", started)

@@ -163,7 +163,9 @@ def field_design(X_design, n_design, X_sim, seed):
         n_design = DEFAULT_N_DESIGN if n_design is None else n_design
         u = stats.qmc.LatinHypercube(d=d, seed=seed).random(n_design)
         return lo + (hi - lo) * u
-    X_design = check_array(X_design, input_name="X_design")
+    # C order: a table matched by name is column-major, and the same design
+    # must give the same bits whatever its layout.
+    X_design = check_array(X_design, input_name="X_design", order="C")
     if X_design.shape[1] != d:
         raise ValueError(
             f"X_design has {X_design.shape[1]} columns but the simulations "

@@ -14,7 +14,7 @@ replicate's module-3 likelihood for a response subset, which
 """
 
 import warnings
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 from scipy import special, stats
@@ -24,10 +24,8 @@ from sklearn.exceptions import ConvergenceWarning
 from skmba._core.regression import regression_basis
 from skmba._core.validation import int_seed
 from skmba._core.warn import warn
-from skmba.calibration._module2_plug_in import (
-    discrepancy_kernel,
-    fit_discrepancy,
-)
+from skmba.calibration._module2_kernel import discrepancy_kernel
+from skmba.calibration._module2_plug_in import fit_discrepancy
 from skmba.calibration._module2_posterior import (
     HyperposteriorDraws,
     fit_hyperposterior,
@@ -36,6 +34,7 @@ from skmba.calibration._module2_posterior import (
 from skmba.calibration._module2_prior_integral import (
     integrate_over_prior,
     integrate_over_rule,
+    prior_units,
 )
 from skmba.priors._hyperprior import Hyperprior
 from skmba.sensor_design._posterior_moments import posterior_moments
@@ -68,8 +67,11 @@ class MonteCarloContext:
     @classmethod
     def build(cls, settings, emulator, scaler, X_design, prior, priors, seeds, **kw):
         """Step 1 at the design: the prior-integrated emulator, the discrepancy
-        kernel and the prior's rule (``seeds``: of the integral and the
-        rule); ``kw``: ``fast`` and ``module2_max_iter``."""
+        kernel, the priors in the design's units (as the calibrator's, see
+        :func:`~skmba.calibration._module2_prior_integral.prior_units`) and
+        the prior's rule (``seeds``: of the integral and the rule); ``kw``:
+        ``fast``, ``module2_max_iter`` and ``user_units`` (the plug-in's
+        response ranges are already in module 2's units)."""
         Xs = scaler.x(X_design)
         design = FieldDesignEmulator(emulator, Xs)
         integrated = integrate_over_prior(
@@ -86,6 +88,14 @@ class MonteCarloContext:
                 "The calibrator's discrepancy_kernel has no 'roughness' "
                 "hyperparameter for discrepancy_prior to draw: use a kernel of "
                 "skmba.kernels (e.g. Gauss())."
+            )
+        units = prior_units(emulator, scaler, prior, Xs)
+        user_units = kw.pop("user_units", False)
+        if isinstance(priors, Hyperprior):
+            priors = priors.in_units(units)
+        else:
+            priors = _ranges_in_units(
+                priors, units, kernel_d.roughness_power, user_units
             )
         n_nodes = 33 if prior.dim == 1 else 64
         nodes, weights = prior.integration_nodes(n_nodes, random_state=seeds[1])
@@ -131,6 +141,18 @@ class MonteCarloContext:
 
     def std_theta(self, theta):
         return self.scaler.theta(theta)
+
+
+def _ranges_in_units(ranges, units, power, user_units):
+    """The plug-in's ranges (:func:`~skmba.sensor_design._inputs.
+    check_design_priors`) in module 2's units: the roughness always (it is
+    stated for the field design), the responses' unless ``user_units``."""
+    out = dict(ranges)
+    out["roughness"] = tuple(units.roughness(b, power) for b in ranges["roughness"])
+    if not user_units:
+        for key, power_y in (("variance", 2), ("noise", 2), ("mean", 1)):
+            out[key] = tuple(units.response(b, power_y) for b in ranges[key])
+    return out
 
 
 class Replicate:
@@ -214,6 +236,7 @@ def _draw_from_hyperprior(ctx, rng):
         q,
         random_state=rng,
         roughness_bounds=(bounds[..., 0], bounds[..., 1]),
+        power=ctx.kernel_d.roughness_power,
     )
     R_d = clone(ctx.kernel_d).set_params(roughness=draw["roughness"])(ctx.Xs)
     sigma2_d = draw["correlation"] * np.outer(draw["sd"], draw["sd"])
@@ -266,7 +289,7 @@ def _fit_module2_draws(ctx, rep, responses):
     the first pass's posterior of theta from these responses.
     """
     idx = list(responses)
-    prior = replace(ctx.hyperprior, sd_scale=ctx.hyperprior.scales(ctx.q)[idx])
+    prior = ctx.hyperprior.restrict(idx)
     first, second, moments = np.random.SeedSequence([rep.seed, 1, mask(idx)]).spawn(3)
 
     def hyperposterior(integrated, seed):

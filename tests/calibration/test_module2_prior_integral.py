@@ -165,3 +165,58 @@ def test_repair_psd_measures_round_off_against_the_cancelled_terms():
     assert np.linalg.eigvalsh(fixed)[0] > 0
     with pytest.warns(UserWarning, match="not positive definite"):
         repair_psd(V * 1e7 * [[1.0, 1.0], [1.0, 0.999]], magnitude=1.0)
+
+
+@pytest.mark.parametrize("block_bytes", [None, 8 * 30 * 4 * 3])
+def test_prior_units_on_a_linear_model(monkeypatch, block_bytes):
+    # A model linear in x and theta is reproduced exactly by an emulator with
+    # a linear regression: the spread over the distinct field inputs and a
+    # uniform prior is sqrt(a^2 var(x) + b^2 var(theta)), var(theta) = 1/3
+    # for U(1, 3); the input ratio is the simulations' sd over the distinct
+    # field inputs' (repeats do not count), in any block size.
+    import skmba.calibration._module2_prior_integral as integration
+    from skmba.calibration._module1_emulator import Standardizer, fit_emulator
+
+    if block_bytes is not None:
+        monkeypatch.setattr(integration, "BLOCK_BYTES", block_bytes)
+    rng = np.random.default_rng(0)
+    X_sim, theta_sim = rng.uniform(0, 20, (30, 1)), rng.uniform(1, 3, (30, 1))
+    coef = np.array([[2.0, -1.0], [3.0, 5.0]])  # rows x, theta
+    y_sim = np.hstack([X_sim, theta_sim]) @ coef
+    scaler = Standardizer.from_simulations(X_sim, theta_sim, y_sim)
+    emulator = fit_emulator(
+        scaler, X_sim, theta_sim, y_sim, regression="linear", n_restarts_optimizer=0
+    )
+    X_field = np.array([[4.0], [6.0], [6.0], [6.0], [9.0], [13.0]])
+    prior = check_prior([stats.uniform(1, 2)])
+    units = integration.prior_units(emulator, scaler, prior, scaler.x(X_field))
+    distinct = np.array([4.0, 6.0, 9.0, 13.0])
+    assert units.input_ratio[0] == pytest.approx(
+        scaler.X_scale[0] / distinct.std(), rel=1e-12
+    )
+    spread = np.sqrt(coef[0] ** 2 * distinct.var() + coef[1] ** 2 / 3.0)
+    np.testing.assert_allclose(
+        np.asarray(units.response_ratio) * scaler.y_scale, spread, rtol=1e-7
+    )
+
+
+def test_prior_units_of_constant_inputs_and_responses_are_one():
+    # A field input that does not vary and a response the model does not vary
+    # at the field inputs (it follows that input) keep module 2's own units
+    # (ratio 1) rather than a zero scale.
+    from skmba.calibration._module1_emulator import Standardizer, fit_emulator
+    from skmba.calibration._module2_prior_integral import prior_units
+
+    rng = np.random.default_rng(1)
+    X_sim, theta_sim = rng.uniform(0, 1, (20, 2)), rng.uniform(0, 1, (20, 1))
+    y_sim = np.column_stack([X_sim[:, 0] + theta_sim[:, 0], X_sim[:, 1]])
+    scaler = Standardizer.from_simulations(X_sim, theta_sim, y_sim)
+    emulator = fit_emulator(
+        scaler, X_sim, theta_sim, y_sim, regression="linear", n_restarts_optimizer=0
+    )
+    X_field = np.column_stack([np.linspace(0, 1, 5), np.full(5, 0.5)])
+    units = prior_units(
+        emulator, scaler, check_prior([stats.uniform(0, 1)]), scaler.x(X_field)
+    )
+    assert units.input_ratio[1] == 1.0 and units.response_ratio[1] == 1.0
+    assert units.input_ratio[0] != 1.0 and units.response_ratio[0] != 1.0

@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 from scipy import integrate, stats
 
-from skmba.priors._hyperprior import Hyperprior, lkj_correlation
+from skmba.kernels import Exp, Gauss, GeneralizedExp, Spherical
+from skmba.priors._hyperprior import Hyperprior, PriorUnits, lkj_correlation
 
 
 @pytest.mark.parametrize(("q", "eta"), [(2, 1.0), (3, 2.0), (4, 1.0), (5, 2.0)])
@@ -145,3 +146,64 @@ def test_roughness_none_means_the_kernels_own_bounds():
     assert np.all(np.isfinite(cal.theta_mean_)) and np.all(
         np.isfinite(designer.scores_)
     )
+
+
+# -------------------------------------------------- the prior's units
+
+
+@pytest.mark.parametrize(
+    ("kernel", "power"),
+    [
+        (Gauss(), 2.0),
+        (Exp(), 1.0),
+        (GeneralizedExp(power=1.5), 1.5),
+        (Spherical(), 1.0),
+    ],
+)
+def test_roughness_in_module2_units_gives_the_same_correlation(kernel, power):
+    # A roughness stated on inputs scaled by the field inputs' sd, carried to
+    # the simulations' standardisation, is the same correlation function.
+    assert kernel.roughness_power == power
+    rng = np.random.default_rng(0)
+    x_user = rng.uniform(10.0, 30.0, size=(7, 1))
+    field_sd, sim_sd = 4.0, 11.0
+    units = PriorUnits(input_ratio=(sim_sd / field_sd,), response_ratio=(1.0,))
+    omega = 0.7
+    in_field = kernel.set_params(roughness=omega)(x_user / field_sd)
+    moved = units.roughness(omega, kernel.roughness_power)
+    in_module2 = kernel.set_params(roughness=float(moved[0]))(x_user / sim_sd)
+    np.testing.assert_allclose(in_module2, in_field, rtol=1e-12, atol=1e-15)
+
+
+def test_prior_in_units_scales_sizes_and_ranges():
+    units = PriorUnits(input_ratio=(2.0, 0.5), response_ratio=(3.0, 0.1))
+    prior = Hyperprior(sd_scale=(0.5, 0.2)).in_units(units)
+    np.testing.assert_allclose(prior.scales(2), [1.5, 0.02])
+    np.testing.assert_allclose(prior.noise_bounds(2), [[9e-6, 9.0], [1e-8, 1e-2]])
+    lo, hi = prior.roughness_bounds(2, power=2.0)
+    np.testing.assert_allclose(lo, [0.4, 0.025])
+    np.testing.assert_allclose(hi, [36.0, 2.25])
+    one = prior.restrict([1])
+    np.testing.assert_allclose(one.scales(1), [0.02])
+    np.testing.assert_allclose(one.noise_bounds(1), [[1e-8, 1e-2]])
+    # The half-normal density of the sd is the field one's, moved: the
+    # densities of log sd agree at corresponding points.
+    field = Hyperprior(sd_scale=(0.5, 0.2))
+    log_sd = np.log([0.3, 0.05])
+    moved = log_sd + np.log([3.0, 0.1])
+    assert prior.log_sd_normalised(moved) == pytest.approx(
+        field.log_sd_normalised(log_sd), rel=1e-12
+    )
+    # A draw: roughness and noise inside the moved ranges.
+    draw = prior.rvs(2, 2, random_state=0)
+    assert np.all((draw["roughness"] >= lo) & (draw["roughness"] <= hi))
+    bounds = prior.noise_bounds(2)
+    assert np.all((draw["noise"] >= bounds[:, 0]) & (draw["noise"] <= bounds[:, 1]))
+
+
+@pytest.mark.parametrize(
+    "ratio", [(0.0,), (-1.0,), (np.nan,), (np.inf,), ((1.0, 2.0),)]
+)
+def test_prior_units_must_be_positive_and_finite(ratio):
+    with pytest.raises(ValueError, match="input_ratio"):
+        PriorUnits(input_ratio=ratio, response_ratio=(1.0,))

@@ -34,16 +34,19 @@ from validation.studies import joint_reference
 from validation.suite import registry
 
 
-def _hand_log_prior(v, prior):
+def _hand_log_prior(v, prior, response_ratio):
     """``log p(phi)`` in ``v`` for one design variable and two responses,
     from the hyperprior's definition: log-uniform roughness and noise
-    (logits of their logs), half-normal sds (in logs), LKJ correlation."""
+    (logits of their logs), half-normal sds (in logs) whose scale is
+    ``sd_scale`` in the field data's terms, ``response_ratio`` times that in
+    module 2's units, LKJ correlation."""
     rough, noise, log_sd, z = v[0], v[1:3], v[3:5], v[5]
     # a uniform variable's logit has the density s (1 - s), s = expit(v)
     s = special.expit(np.r_[rough, noise])
     value = np.sum(np.log(s * (1 - s)))
     sd = np.exp(log_sd)
-    value += np.sum(stats.halfnorm(scale=prior.sd_scale).logpdf(sd) + log_sd)
+    scale = prior.sd_scale * np.asarray(response_ratio)
+    value += np.sum(stats.halfnorm(scale=scale).logpdf(sd) + log_sd)
     rho = z / np.sqrt(1 + z**2)  # the unit-row factor [[1, 0], [z, 1]]
     eta = prior.correlation_eta
     value += stats.beta(eta, eta).logpdf((1 + rho) / 2) - np.log(2)
@@ -72,7 +75,8 @@ def test_joint_density_is_the_sum_of_its_parts(a1_fit):
     expected = log_prior_u + space.log_prior(v) + model.log_likelihood(theta_std)
     assert target(x) == pytest.approx(expected, rel=1e-10)
     # and log p(phi) in v is the hyperprior's, normalised
-    assert space.log_prior(v) == pytest.approx(_hand_log_prior(v, Hyperprior()))
+    ratio = cal.discrepancy_prior_units_.response_ratio
+    assert space.log_prior(v) == pytest.approx(_hand_log_prior(v, Hyperprior(), ratio))
     # outside the prior of theta, the density is zero
     assert target(np.r_[log_post.to_u(np.array([1e6])), v]) == -np.inf
 

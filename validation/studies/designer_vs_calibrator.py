@@ -87,9 +87,8 @@ def one_seed(seed, X_field):
     rng = np.random.default_rng([int(seed), 2])
     theta = np.array([lo + (hi - lo) * rng.uniform()])
     _, y, _ = draw_field_data(
-        seed, data.simulator, theta, X_field, data.X_sim, data.y_sim,
-        CANTILEVER_X_BOUNDS,
-    )  # fmt: skip
+        seed, data.simulator, theta, X_field, data.prior, CANTILEVER_X_BOUNDS
+    )
     out = []
     with threadpoolctl.threadpool_limits(1), warnings.catch_warnings():
         warnings.simplefilter("ignore")
