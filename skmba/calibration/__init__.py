@@ -41,6 +41,8 @@ file                               holds
 ``_module3_identifiability.py``    ``identifiability_`` and its warning
 ``_module4_prediction.py``         module 4: the predictions
 ``_summary.py``                    ``summary`` and ``to_inference_data``
+``_sensitivity.py``                ``prior_sensitivity``: refits under a
+                                   stated class of discrepancy priors
 ``_change_detector.py``            :class:`ChangeDetector`: the reference
                                    state and a batch's decision and report
 ``_change_evidence.py``            the evidence of one batch for a change

@@ -21,10 +21,7 @@ from typing import ClassVar
 
 import numpy as np
 from sklearn.base import BaseEstimator, MultiOutputMixin, RegressorMixin
-from sklearn.utils.validation import (
-    check_consistent_length,
-    validate_data,
-)
+from sklearn.utils.validation import check_consistent_length, validate_data
 
 from skmba._core.columns import column_names
 from skmba._core.progress import Progress
@@ -64,6 +61,7 @@ from skmba.calibration._pipeline import (
     fitted_attributes,
     run_modules,
 )
+from skmba.calibration._sensitivity import PriorSensitivityMixin
 from skmba.calibration._settings import PARAMETER_TABLE, CalibrationSettings
 from skmba.calibration._simulations import kept_simulator_runs
 from skmba.calibration._summary import (
@@ -78,6 +76,7 @@ class ModularBayesCalibrator(
     CalibratedPredictionMixin,
     PosteriorDensityMixin,
     CalibrationSummaryMixin,
+    PriorSensitivityMixin,
     MultiOutputMixin,
     RegressorMixin,
     BaseEstimator,
@@ -302,6 +301,7 @@ class ModularBayesCalibrator(
     MultiResponseGP : the emulator and discrepancy model.
     PreposteriorDesigner : which responses identify theta best, before
         measuring.
+    prior_sensitivity : theta's posterior under other discrepancy priors.
 
     References
     ----------
