@@ -217,12 +217,13 @@ def warn_if_confounded(values, names):
     warn(
         f"The field data cannot tell {', '.join(weak)} from the model "
         "discrepancy (identifiability_ below "
-        f"{IDENTIFIABILITY_THRESHOLD:.2f}): a discrepancy of plausible size "
-        "can mimic its effect on the observed responses, so its interval "
-        "reflects the prior on the discrepancy (discrepancy_prior) more than "
-        "the data, and can miss the true value if the model error is larger "
-        "than that prior allows. To identify it, measure other responses "
-        "(PreposteriorDesigner ranks them), add prior information on it, or "
-        "constrain the discrepancy.",
+        f"{IDENTIFIABILITY_THRESHOLD:.2f}): a discrepancy shaped like its "
+        "effect on the observed responses (e.g. proportional to them) "
+        "mimics a change of it, so its interval reflects the discrepancy "
+        "prior (mostly its roughness range; prior_sensitivity() shows how "
+        "much) more than the data, and misses the true value when the model "
+        "error has that shape, whatever its size. To identify it, measure "
+        "other responses (PreposteriorDesigner ranks them), add prior "
+        "information on it, or constrain the discrepancy.",
         NonIdentifiabilityWarning,
     )
