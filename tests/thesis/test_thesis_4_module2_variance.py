@@ -63,21 +63,33 @@ def test_plain_maximum_likelihood_pins_E_at_the_confounded_value():
     assert np.sqrt(plain.theta_cov_[0, 0]) < 1e-3 * confounded
     assert not inside(data.theta_true[0], credible_interval(plain))
     assert np.all(np.diag(plain.discrepancy_sigma2_) < 1e-6 * plain.y_scale_**2)
-    # The default: each discrepancy variance at least 1 % of the simulated
-    # response's variance, and a credible interval that contains E*.
-    assert np.all(np.diag(default.discrepancy_sigma2_) >= 0.01 * default.y_scale_**2)
+    # The default: each discrepancy variance at least 1 % of the square of
+    # the model's spread over the field inputs and the prior (the units of
+    # the prior, discrepancy_prior_units_), and a credible interval that
+    # contains E*.
+    unit_y = default.y_scale_ * np.asarray(
+        default.discrepancy_prior_units_.response_ratio
+    )
+    assert np.all(np.diag(default.discrepancy_sigma2_) >= 0.01 * unit_y**2 * (1 - 1e-9))
     assert inside(data.theta_true[0], credible_interval(default))
 
 
 def test_discrepancy_prior_ranges_bound_module_2():
     data = make_cantilever(random_state=1)
+    # The ranges are stated in the prior's units (the field inputs' sd, the
+    # model's spread over them): carried to the standardised units the
+    # fitted attributes are in with discrepancy_prior_units_.
     cal = fit(data, **PLUG_IN, discrepancy_prior={"variance": (0.05, [0.2, 20.0])})
-    scaled = np.diag(cal.discrepancy_sigma2_) / cal.y_scale_**2
+    units = cal.discrepancy_prior_units_
+    ratio_x, ratio_y = (np.asarray(units.input_ratio), np.asarray(units.response_ratio))
+    scaled = np.diag(cal.discrepancy_sigma2_) / (cal.y_scale_ * ratio_y) ** 2
     assert np.all(scaled >= 0.05 * (1 - 1e-9)) and scaled[0] <= 0.2 * (1 + 1e-9)
-    roughness = cal.discrepancy_kernel_.roughness
-    assert np.all((roughness >= 0.1) & (roughness <= 9.0))  # Table 6.2 default
+    roughness = cal.discrepancy_kernel_.roughness / ratio_x**2  # Gauss: 1/length^2
+    tol = 1e-9
+    assert np.all((roughness >= 0.1 * (1 - tol)) & (roughness <= 9.0 * (1 + tol)))
     fixed = fit(data, **PLUG_IN, discrepancy_prior={"roughness": (2.0, 2.0)})
-    np.testing.assert_allclose(fixed.discrepancy_kernel_.roughness, 2.0)
+    ratio_x = np.asarray(fixed.discrepancy_prior_units_.input_ratio)
+    np.testing.assert_allclose(fixed.discrepancy_kernel_.roughness, 2.0 * ratio_x**2)
     # A kernel's own bounds are kept with "roughness": None, and a fixed
     # roughness stays fixed.
     own = fit(
