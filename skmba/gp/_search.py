@@ -31,13 +31,13 @@ from dataclasses import dataclass, replace
 from typing import NamedTuple
 
 import numpy as np
-from scipy import optimize
 from sklearn.exceptions import ConvergenceWarning
 
 from skmba._core.dace import DACECorrelation
 from skmba._core.linalg import FactorizationError, smallest_pivot
 from skmba._core.validation import random_state_instance
 from skmba._core.warn import warn
+from skmba.gp._lbfgsb import blocked, minimize_lbfgsb
 from skmba.gp._likelihood import (
     R_REMEDY,
     R_WHAT,
@@ -158,11 +158,7 @@ def _projected_gradient(res, bounds):
     """Gradient of an L-BFGS-B result with the components blocked by a bound
     removed (those at a bound that point out of the box)."""
     grad = np.asarray(res.jac, dtype=float)
-    x = np.asarray(res.x, dtype=float)
-    lower = x <= bounds[:, 0] + 1e-10 * (1.0 + np.abs(bounds[:, 0]))
-    upper = x >= bounds[:, 1] - 1e-10 * (1.0 + np.abs(bounds[:, 1]))
-    blocked = (lower & (grad > 0)) | (upper & (grad < 0))
-    return np.where(blocked, 0.0, grad)
+    return np.where(blocked(np.asarray(res.x, dtype=float), grad, bounds), 0.0, grad)
 
 
 def negative_objective(evaluate, params, eval_gradient, failures, errors, gradient):
@@ -182,11 +178,15 @@ def negative_objective(evaluate, params, eval_gradient, failures, errors, gradie
     return -fit.log_likelihood
 
 
-def run_optimizer(objective, starts, bounds, optimizer, failures, on_start=None):
+def run_optimizer(
+    objective, starts, bounds, optimizer, failures, on_start=None, n_observations=1
+):
     """Minimise ``objective`` from each start.
 
     ``optimizer`` is a callable ``optimizer(objective, start, bounds) ->
-    (x, fun)``, otherwise L-BFGS-B is used. ``failures`` is the list the
+    (x, fun)``, otherwise L-BFGS-B is used on the objective per observation
+    (``n_observations``, i.e. ``N q``) with the stopping rule of
+    :func:`~skmba.gp._lbfgsb.minimize_lbfgsb`. ``failures`` is the list the
     objective appends factorisation errors to. ``on_start(k, n, fun)``, when
     given, is called after start ``k`` (1-based) of ``n``, for progress
     reports. Returns a :class:`Search`: the
@@ -203,9 +203,7 @@ def run_optimizer(objective, starts, bounds, optimizer, failures, on_start=None)
         if callable(optimizer):
             x, fun = optimizer(objective, start, bounds)
         else:
-            res = optimize.minimize(
-                objective, start, method="L-BFGS-B", jac=True, bounds=bounds
-            )
+            res = minimize_lbfgsb(objective, start, bounds, n_observations)
             x, fun = res.x, res.fun
             flat = bool(
                 np.all(
@@ -214,7 +212,7 @@ def run_optimizer(objective, starts, bounds, optimizer, failures, on_start=None)
                 )
             )
             if not res.success and np.isfinite(res.fun) and not flat:
-                notes.append(str(res.message))
+                notes.append(res.message)
         fun = float(fun)
         if on_start is not None:
             on_start(k, len(starts), fun)
@@ -318,6 +316,7 @@ class _Concentrated:
                 self.problem.optimizer,
                 self.failures,
                 on_start=self.problem.on_start,
+                n_observations=self.problem.Y.size,
             )
         else:
             x, found, flat = x0, [], None
