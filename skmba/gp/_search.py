@@ -250,6 +250,9 @@ class _Concentrated:
         self.with_nugget = with_nugget
         self.n_kernel = kernel.n_dims
         self.failures = []
+        # (params, fit) of the latest evaluation of the search: the fit at
+        # its optimum is then not computed again (one N x N Cholesky less).
+        self.latest = None
 
     def likelihood(self, params, eval_gradient):
         n_kernel, problem = self.n_kernel, self.problem
@@ -267,9 +270,17 @@ class _Concentrated:
                 dR = np.concatenate([dR, dtau], axis=2)
         return NoiseFreeLikelihood(R, problem.H, problem.Y, dR, ridge=problem.ridge)
 
+    def _evaluate(self, params, eval_gradient):
+        """:meth:`likelihood`, remembered as ``latest`` (the previous one
+        dropped first: no two N x N factors at once)."""
+        self.latest = None
+        fit = self.likelihood(params, eval_gradient)
+        self.latest = (np.array(params, dtype=float), fit)
+        return fit
+
     def objective(self, params, eval_gradient=True):
         return negative_objective(
-            self.likelihood,
+            self._evaluate,
             params,
             eval_gradient,
             self.failures,
@@ -307,6 +318,7 @@ class _Concentrated:
     def search(self, x0, bounds, starts, search):
         """One search at the current nugget: ``(x, fit, found, notes, flat)``."""
         self.failures.clear()
+        self.latest = None
         notes = []
         if search:
             x, found, notes, flat = run_optimizer(
@@ -321,11 +333,14 @@ class _Concentrated:
         else:
             x, found, flat = x0, [], None
         fit = None
-        if x is not None:
+        if self.latest is not None and np.array_equal(self.latest[0], x):
+            fit = self.latest[1]
+        elif x is not None:
             try:
                 fit = self.likelihood(x, False)
             except FactorizationError as exc:
                 found.append(exc)
+        self.latest = None
         return x, fit, found, notes, flat
 
 
