@@ -4,7 +4,9 @@ The concentrated likelihood (``beta`` and ``Sigma2`` in closed form, thesis
 Eq. 3.19, :class:`~skmba.gp._likelihood.NoiseFreeLikelihood`) is maximised over
 the kernel's log-hyperparameters, and for the start of a noisy fit also over
 a log noise-to-signal ratio ``tau``, with L-BFGS-B (or the user's optimizer)
-from the kernel's values and random restarts. While the correlation matrix
+from the kernel's values and random restarts; each L-BFGS-B run, on the
+likelihood per observation and with its stopping rule, is
+:func:`skmba.gp._lbfgsb.minimize_lbfgsb`. While the correlation matrix
 is numerically singular the nugget is escalated: multiplied by 10 (from
 1e-12 when it is 0), never beyond 1e-6, with one warning (see "Nugget
 escalation" in the User Guide). Above ``WARM_START_ABOVE`` samples the search
