@@ -1,6 +1,25 @@
 """Benchmark MultiResponseGP against scikit-learn's GaussianProcessRegressor.
 
-Prints, from one run in one process:
+With ``--defaults`` (issue 34, what users get) it prints, each figure from
+a fresh Python process (``cold``: the first fit + predict of the process,
+its imports apart; ``warm``: a second one in the same process), with the
+machine's CPUs and BLAS thread settings first:
+
+0. at N=5000, d=4, q=4, fit + predict of 2,000 points by
+   ``MultiResponseGP()`` with its defaults, by the same with the previous
+   default search (``optimizer=`` scipy's L-BFGS-B on ``-loglik`` run to its
+   own end, the reference of the ratio) and by the tuned configuration
+   ``MultiResponseGP(Gauss(roughness=np.ones(4)), alpha=1e-8)``, in that
+   order: times, the likelihood evaluations on all N samples, the held-out
+   R^2, the process's peak resident memory; targets for the defaults: under
+   60 s and 2 GiB, R^2 no worse than the previous search's;
+0b. at N = 500, 1000, 2000 (q=4), the same with defaults on both sides
+   against scikit-learn (one ``GaussianProcessRegressor()`` per response),
+   then the tuned configurations (``GaussianProcessRegressor(RBF(ones),
+   alpha=1e-8, normalize_y=True)``); target: skmba / sklearn <= 0.5 with
+   the same or better R^2.
+
+Without it, from one run in one process:
 
 1. fit + predict wall time of ``MultiResponseGP`` (anisotropic Gauss kernel)
    and of sklearn's ``GaussianProcessRegressor`` (anisotropic RBF, the same
@@ -28,23 +47,31 @@ With ``--large`` (issue 15, large emulators) it prints instead:
 Every run starts with the threads line of ``skmba._core.threads``.
 
 Run with ``python benchmarks/bench_gp.py`` (add ``--quick`` for a smaller
-smoke run, ``--large`` for the large emulators, ``--ratios`` for item 5
-alone). Targets: ratio <= 1.0;
+smoke run, ``--defaults`` for what users get (about an hour on two cores,
+most of it scikit-learn's and the previous search's), ``--large`` for the
+large emulators, ``--ratios`` for item 5 alone). Targets: ratio <= 1.0;
 noisy q=16 under 16x the time of q=2.
 """
 
 import argparse
+import json
+import os
+import resource
+import subprocess
+import sys
 import time
 import tracemalloc
 import warnings
 
 import numpy as np
 from scipy import linalg
+from scipy.optimize import minimize
 from sklearn.exceptions import ConvergenceWarning
 from sklearn.gaussian_process import GaussianProcessRegressor
 from sklearn.gaussian_process.kernels import RBF
 from sklearn.metrics import r2_score
 
+import skmba.gp._search
 from skmba import MultiResponseGP
 from skmba._core.threads import blas_threads, describe_threads
 from skmba.gp._likelihood import NoiseFreeLikelihood
@@ -254,6 +281,133 @@ def sklearn_ratios(ns):
     )
 
 
+# --------------------------------------- what users get (issue 34, --defaults)
+def scipy_to_its_end(objective, start, bounds):
+    """The previous default search: L-BFGS-B on ``-loglik`` with scipy's
+    defaults, run until its own tests (or failed line searches) end it."""
+    res = minimize(objective, start, jac=True, method="L-BFGS-B", bounds=bounds)
+    return res.x, res.fun
+
+
+#: name -> (estimator factory, skmba's or not); defaults first.
+CONFIGS = {
+    "skmba defaults": (lambda: MultiResponseGP(), True),
+    "sklearn defaults": (lambda: PerResponseGPR(), False),
+    "skmba previous search": (
+        lambda: MultiResponseGP(optimizer=scipy_to_its_end),
+        True,
+    ),
+    "skmba tuned": (
+        lambda: MultiResponseGP(Gauss(roughness=np.ones(4)), alpha=1e-8),
+        True,
+    ),
+    "sklearn tuned": (
+        lambda: PerResponseGPR(
+            kernel=RBF(length_scale=np.ones(4)), alpha=1e-8, normalize_y=True
+        ),
+        False,
+    ),
+}
+
+
+def _one(name, n, n_test=2000, seed=0):
+    """Fit + predict ``CONFIGS[name]`` twice in this (fresh) process; print
+    one JSON line (times, full-size evaluations, R^2, peak RSS)."""
+    rng = np.random.default_rng(seed)
+    X = rng.uniform(size=(n, 4))
+    Y = responses(X, 4)
+    X_test = rng.uniform(size=(n_test, 4))
+    Y_test = responses(X_test, 4)
+    factory, ours = CONFIGS[name]
+    count = {"evaluations": 0}
+
+    class Counting(NoiseFreeLikelihood):
+        def __init__(self, R, *args, **kwargs):
+            count["evaluations"] += len(R) == n
+            super().__init__(R, *args, **kwargs)
+
+    skmba.gp._search.NoiseFreeLikelihood = Counting
+    runs = []
+    for _ in range(2):
+        count["evaluations"] = 0
+        model = factory()
+        t_fit, _ = timed(lambda model=model: model.fit(X, Y))
+        t_pred, mean = timed(lambda model=model: model.predict(X_test))
+        runs.append((t_fit, t_pred, count["evaluations"]))
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # MiB
+    print(
+        json.dumps(
+            {
+                "cold": runs[0][:2],
+                "warm": runs[1][:2],
+                "evaluations": runs[1][2] if ours else None,
+                "r2": r2_score(Y_test, mean),
+                "peak_mib": peak,
+            }
+        )
+    )
+
+
+def run_fresh(name, n):
+    """``_one(name, n)`` in a fresh Python process; prints one line."""
+    run = subprocess.run(
+        [sys.executable, __file__, "--one", name, "--n", str(n)],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    result = json.loads(run.stdout.strip().splitlines()[-1])
+    fit, pred = result["cold"]
+    w_fit, w_pred = result["warm"]
+    evaluations = result["evaluations"]
+    print(
+        f"  {name:22s}: cold {fit + pred:7.1f} s, warm {w_fit + w_pred:7.1f} s "
+        f"(fit {w_fit:6.1f} s, predict {w_pred:4.1f} s); "
+        + (f"{evaluations} evaluations on all N; " if evaluations else "")
+        + f"1 - R^2 {1 - result['r2']:.2e}; peak RSS {result['peak_mib']:5.0f} MiB",
+        flush=True,
+    )
+    return result
+
+
+def _load():
+    """The load averages over 1, 5 and 15 minutes."""
+    return ", ".join(f"{x:.1f}" for x in os.getloadavg())
+
+
+def defaults_report(n_large, ns):
+    """Item 0 at ``n_large`` and item 0b at each of ``ns``."""
+    env = {k: os.environ.get(k) for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS")}
+    print(f"CPUs: {os.cpu_count()}; BLAS threads from the environment: {env}")
+    print(f"load average (1, 5, 15 min) at the start: {_load()}")
+    print("imports of skmba and sklearn.gaussian_process in a fresh process: ", end="")
+    started = time.perf_counter()
+    subprocess.run([sys.executable, "-c", "import skmba, sklearn.gaussian_process"])
+    print(f"{time.perf_counter() - started:.1f} s (not in the times below)")
+
+    def ratio(a, b):
+        total = {k: [sum(r[k]) for r in (a, b)] for k in ("cold", "warm")}
+        return ", ".join(f"{k} {x / y:.2f}" for k, (x, y) in total.items())
+
+    print(f"fit + predict 2000 points, N={n_large}, d=4, q=4:")
+    names = ("skmba defaults", "skmba previous search", "skmba tuned")
+    r = {name: run_fresh(name, n_large) for name in names}
+    print(
+        f"  defaults / previous search: {ratio(*[r[k] for k in names[:2]])}; "
+        f"defaults / tuned: {ratio(r[names[0]], r[names[2]])}"
+    )
+    for n in ns:
+        print(f"fit + predict 2000 points, N={n}, d=4, q=4:")
+        r = {name: run_fresh(name, n) for name in CONFIGS}
+        print(
+            "  skmba / sklearn: defaults "
+            f"{ratio(r['skmba defaults'], r['sklearn defaults'])}; tuned "
+            f"{ratio(r['skmba tuned'], r['sklearn tuned'])}; skmba defaults / "
+            f"previous search {ratio(r['skmba defaults'], r['skmba previous search'])}"
+        )
+    print(f"load average (1, 5, 15 min) at the end: {_load()}")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="small smoke run")
@@ -265,10 +419,24 @@ def main():
         action="store_true",
         help="only item 5: the time ratio to sklearn at N = 500, 1000, 2000",
     )
+    parser.add_argument(
+        "--defaults",
+        action="store_true",
+        help="what users get: defaults first, fresh processes (issue 34)",
+    )
+    parser.add_argument("--one", choices=list(CONFIGS), help=argparse.SUPPRESS)
+    parser.add_argument("--n", type=int, help=argparse.SUPPRESS)
     args = parser.parse_args()
     warnings.simplefilter("ignore", ConvergenceWarning)
+    if args.one:
+        _one(args.one, args.n)
+        return
     print(describe_threads())
-    if args.ratios:
+    if args.defaults:
+        defaults_report(
+            *((1200, (200, 400)) if args.quick else (5000, (500, 1000, 2000)))
+        )
+    elif args.ratios:
         sklearn_ratios((200, 400) if args.quick else (500, 1000, 2000))
     elif args.large:
         n_mem, n_fit, ns = (

@@ -5,7 +5,8 @@
 is given (the calibration modules use it too). ``predict`` and ``sample_y``
 come from :mod:`skmba.gp._predict`; the likelihood and predictive moments
 are in :mod:`skmba.gp._likelihood`, the hyperparameter search and the
-nugget escalation in :mod:`skmba.gp._search`, the noisy fit in
+nugget escalation in :mod:`skmba.gp._search` (its L-BFGS-B runs in
+:mod:`skmba.gp._lbfgsb`), the noisy fit in
 :mod:`skmba.gp._noisy` and the checks of the training data in
 :mod:`skmba.gp._checks`.
 

@@ -145,6 +145,7 @@ def fit_noisy(problem, kernel):
             kernel.bounds,
             problem.optimizer,
             profile.failures,
+            n_observations=Y.size,
         )
         if theta is None:
             raise FactorizationError(

@@ -4,7 +4,9 @@ The concentrated likelihood (``beta`` and ``Sigma2`` in closed form, thesis
 Eq. 3.19, :class:`~skmba.gp._likelihood.NoiseFreeLikelihood`) is maximised over
 the kernel's log-hyperparameters, and for the start of a noisy fit also over
 a log noise-to-signal ratio ``tau``, with L-BFGS-B (or the user's optimizer)
-from the kernel's values and random restarts. While the correlation matrix
+from the kernel's values and random restarts; each L-BFGS-B run, on the
+likelihood per observation and with its stopping rule, is
+:func:`skmba.gp._lbfgsb.minimize_lbfgsb`. While the correlation matrix
 is numerically singular the nugget is escalated: multiplied by 10 (from
 1e-12 when it is 0), never beyond 1e-6, with one warning (see "Nugget
 escalation" in the User Guide). Above ``WARM_START_ABOVE`` samples the search
@@ -31,13 +33,13 @@ from dataclasses import dataclass, replace
 from typing import NamedTuple
 
 import numpy as np
-from scipy import optimize
 from sklearn.exceptions import ConvergenceWarning
 
 from skmba._core.dace import DACECorrelation
 from skmba._core.linalg import FactorizationError, smallest_pivot
 from skmba._core.validation import random_state_instance
 from skmba._core.warn import warn
+from skmba.gp._lbfgsb import blocked, minimize_lbfgsb
 from skmba.gp._likelihood import (
     R_REMEDY,
     R_WHAT,
@@ -158,11 +160,7 @@ def _projected_gradient(res, bounds):
     """Gradient of an L-BFGS-B result with the components blocked by a bound
     removed (those at a bound that point out of the box)."""
     grad = np.asarray(res.jac, dtype=float)
-    x = np.asarray(res.x, dtype=float)
-    lower = x <= bounds[:, 0] + 1e-10 * (1.0 + np.abs(bounds[:, 0]))
-    upper = x >= bounds[:, 1] - 1e-10 * (1.0 + np.abs(bounds[:, 1]))
-    blocked = (lower & (grad > 0)) | (upper & (grad < 0))
-    return np.where(blocked, 0.0, grad)
+    return np.where(blocked(np.asarray(res.x, dtype=float), grad, bounds), 0.0, grad)
 
 
 def negative_objective(evaluate, params, eval_gradient, failures, errors, gradient):
@@ -182,11 +180,15 @@ def negative_objective(evaluate, params, eval_gradient, failures, errors, gradie
     return -fit.log_likelihood
 
 
-def run_optimizer(objective, starts, bounds, optimizer, failures, on_start=None):
+def run_optimizer(
+    objective, starts, bounds, optimizer, failures, on_start=None, n_observations=1
+):
     """Minimise ``objective`` from each start.
 
     ``optimizer`` is a callable ``optimizer(objective, start, bounds) ->
-    (x, fun)``, otherwise L-BFGS-B is used. ``failures`` is the list the
+    (x, fun)``, otherwise L-BFGS-B is used on the objective per observation
+    (``n_observations``, i.e. ``N q``) with the stopping rule of
+    :func:`~skmba.gp._lbfgsb.minimize_lbfgsb`. ``failures`` is the list the
     objective appends factorisation errors to. ``on_start(k, n, fun)``, when
     given, is called after start ``k`` (1-based) of ``n``, for progress
     reports. Returns a :class:`Search`: the
@@ -203,9 +205,7 @@ def run_optimizer(objective, starts, bounds, optimizer, failures, on_start=None)
         if callable(optimizer):
             x, fun = optimizer(objective, start, bounds)
         else:
-            res = optimize.minimize(
-                objective, start, method="L-BFGS-B", jac=True, bounds=bounds
-            )
+            res = minimize_lbfgsb(objective, start, bounds, n_observations)
             x, fun = res.x, res.fun
             flat = bool(
                 np.all(
@@ -214,7 +214,7 @@ def run_optimizer(objective, starts, bounds, optimizer, failures, on_start=None)
                 )
             )
             if not res.success and np.isfinite(res.fun) and not flat:
-                notes.append(str(res.message))
+                notes.append(res.message)
         fun = float(fun)
         if on_start is not None:
             on_start(k, len(starts), fun)
@@ -252,6 +252,9 @@ class _Concentrated:
         self.with_nugget = with_nugget
         self.n_kernel = kernel.n_dims
         self.failures = []
+        # (params, fit) of the latest evaluation of the search: the fit at
+        # its optimum is then not computed again (one N x N Cholesky less).
+        self.latest = None
 
     def likelihood(self, params, eval_gradient):
         n_kernel, problem = self.n_kernel, self.problem
@@ -269,9 +272,17 @@ class _Concentrated:
                 dR = np.concatenate([dR, dtau], axis=2)
         return NoiseFreeLikelihood(R, problem.H, problem.Y, dR, ridge=problem.ridge)
 
+    def _evaluate(self, params, eval_gradient):
+        """:meth:`likelihood`, remembered as ``latest`` (the previous one
+        dropped first: no two N x N factors at once)."""
+        self.latest = None
+        fit = self.likelihood(params, eval_gradient)
+        self.latest = (np.array(params, dtype=float), fit)
+        return fit
+
     def objective(self, params, eval_gradient=True):
         return negative_objective(
-            self.likelihood,
+            self._evaluate,
             params,
             eval_gradient,
             self.failures,
@@ -309,6 +320,7 @@ class _Concentrated:
     def search(self, x0, bounds, starts, search):
         """One search at the current nugget: ``(x, fit, found, notes, flat)``."""
         self.failures.clear()
+        self.latest = None
         notes = []
         if search:
             x, found, notes, flat = run_optimizer(
@@ -318,15 +330,19 @@ class _Concentrated:
                 self.problem.optimizer,
                 self.failures,
                 on_start=self.problem.on_start,
+                n_observations=self.problem.Y.size,
             )
         else:
             x, found, flat = x0, [], None
         fit = None
-        if x is not None:
+        if self.latest is not None and np.array_equal(self.latest[0], x):
+            fit = self.latest[1]
+        elif x is not None:
             try:
                 fit = self.likelihood(x, False)
             except FactorizationError as exc:
                 found.append(exc)
+        self.latest = None
         return x, fit, found, notes, flat
 
 

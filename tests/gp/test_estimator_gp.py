@@ -846,10 +846,11 @@ def test_search_still_stopped_at_the_maximum_nugget_warns(monkeypatch):
 
 
 class _Unconverged:
-    """scipy.optimize stand-in whose L-BFGS-B runs all end unconverged."""
+    """scipy.optimize stand-in whose L-BFGS-B runs all end unconverged (and
+    are not stopped by the predicted-gain rule: no callback)."""
 
     @staticmethod
-    def minimize(*args, bounds, **kwargs):
+    def minimize(*args, bounds, callback=None, **kwargs):
         res = minimize(*args, bounds=bounds, **kwargs)
         middle = np.mean(bounds, axis=1)
         res.success, res.message = False, "ABNORMAL (test)"
@@ -864,7 +865,7 @@ def test_search_warnings_point_at_the_caller_of_fit(noise, monkeypatch):
         with pytest.warns(UserWarning, match="so the nugget was raised to") as w:
             MultiResponseGP(Gauss(roughness=100.0), alpha=0.0).fit(X, Y)
         assert {record.filename for record in w} == {__file__}
-    monkeypatch.setattr(skmba.gp._search, "optimize", _Unconverged)
+    monkeypatch.setattr(skmba.gp._lbfgsb, "optimize", _Unconverged)
     gp = MultiResponseGP(Gauss(roughness=1.0), noise=noise)
     with pytest.warns(ConvergenceWarning, match=r"ABNORMAL \(test\)") as w:
         gp.fit(X, Y)
