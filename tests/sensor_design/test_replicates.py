@@ -47,8 +47,11 @@ def test_a_stack_of_covariances_is_scored_as_each_one_alone(criterion):
 def test_the_designer_states_the_prior_in_the_calibrators_terms(treatment):
     # The designer draws and fits its synthetic data with the discrepancy
     # prior in the same terms as the calibrator that will fit the field data
-    # at the planned inputs: the same PriorUnits (to the emulators' round-off)
-    # and, for the plug-in, the ranges carried to module 2's units with them.
+    # at the planned inputs: the same PriorUnits and, for the plug-in, the
+    # ranges carried to module 2's units with them. The response unit is
+    # measured on each one's emulator, two fits whose searches stop within
+    # GAIN_TOL (1e-3 nats) of the likelihood's maximum: they agree to 2e-6
+    # to 1e-5 relative (the simulations' units differ by 5e-3 and 3e-2 here).
     from skmba import ModularBayesCalibrator
     from skmba.calibration._module1_emulator import Standardizer, fit_emulator
     from skmba.calibration._settings import CalibrationSettings
@@ -81,7 +84,7 @@ def test_the_designer_states_the_prior_in_the_calibrators_terms(treatment):
     if treatment == "propagate":
         got = ctx.hyperprior.units
         np.testing.assert_allclose(got.input_ratio, units.input_ratio, rtol=1e-12)
-        np.testing.assert_allclose(got.response_ratio, units.response_ratio, rtol=1e-6)
+        np.testing.assert_allclose(got.response_ratio, units.response_ratio, rtol=1e-4)
     else:
         np.testing.assert_allclose(
             ctx.priors["roughness"][0], 0.1 * np.asarray(units.input_ratio) ** 2,
@@ -89,5 +92,5 @@ def test_the_designer_states_the_prior_in_the_calibrators_terms(treatment):
         )  # fmt: skip
         np.testing.assert_allclose(
             ctx.priors["variance"][0], 1e-2 * np.asarray(units.response_ratio) ** 2,
-            rtol=1e-6,
+            rtol=1e-4,
         )  # fmt: skip
