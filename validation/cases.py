@@ -96,15 +96,15 @@ def _lhs(n, bounds, rng):
     return bounds[:, 0] + unit * (bounds[:, 1] - bounds[:, 0])
 
 
-def noise_sd_30db(y_true):
-    """Noise standard deviation per response at 30 dB over ``y_true``."""
-    return np.sqrt(np.var(y_true, axis=0) / 10.0 ** (SNR_DB / 10.0))
+def noise_sd_at(y_true, snr_db=SNR_DB):
+    """Noise standard deviation per response at ``snr_db`` over ``y_true``."""
+    return np.sqrt(np.var(y_true, axis=0) / 10.0 ** (snr_db / 10.0))
 
 
-def _observe(reality_fn, X, seed):
+def _observe(reality_fn, X, seed, snr_db=SNR_DB):
     """Noisy observations of ``reality_fn`` at ``X`` and the noise sd."""
     y_true = reality_fn(X)
-    sd = noise_sd_30db(y_true)
+    sd = noise_sd_at(y_true, snr_db)
     y = y_true + _rng(seed, 1).normal(size=y_true.shape) * sd
     return y, sd
 
@@ -264,26 +264,28 @@ def frequency_model(X, theta):
 
 
 class _FrequencyReality:
-    """The frequency model at ``theta`` plus the discrepancy 0.1 x^2."""
+    """The frequency model at ``theta`` plus the discrepancy ``amplitude x^2``."""
 
-    def __init__(self, theta):
+    def __init__(self, theta, amplitude=FREQ_DISCREPANCY):
         self.theta = np.asarray(theta, dtype=float)
+        self.amplitude = float(amplitude)
 
     def __call__(self, X):
         X = np.asarray(X, dtype=float)
         out = frequency_model(X, np.tile(self.theta, (len(X), 1)))
-        return out + FREQ_DISCREPANCY * X[:, :1] ** 2
+        return out + self.amplitude * X[:, :1] ** 2
 
 
-def case_freq(seed):
-    """freq: y = sin(2 pi theta x) + 0.5 x, theta* = 3.1, discrepancy 0.1 x^2."""
+def case_freq(seed, *, amplitude=FREQ_DISCREPANCY, snr_db=SNR_DB):
+    """freq: y = sin(2 pi theta x) + 0.5 x, theta* = 3.1, discrepancy 0.1 x^2
+    (``amplitude`` x^2), noise at ``snr_db``."""
     n_sim, n_obs = FREQ_SIZES
     rng = _rng(seed, 0)
     design = _lhs(n_sim, np.vstack([UNIT_X_BOUNDS, FREQ_BOUNDS]), rng)
     X_sim, theta_sim = design[:, :1], design[:, 1:]
     X = _lhs(n_obs, UNIT_X_BOUNDS, rng)
-    reality = _FrequencyReality(FREQ_THETA_TRUE)
-    y, sd = _observe(reality, X, seed)
+    reality = _FrequencyReality(FREQ_THETA_TRUE, amplitude)
+    y, sd = _observe(reality, X, seed, snr_db)
     return Case(
         X,
         y,
