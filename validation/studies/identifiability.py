@@ -44,7 +44,7 @@ from skmba.exceptions import NonIdentifiabilityWarning
 from validation.cases import CASES, case_freq
 from validation.statistics import wilson_interval
 
-#: (label, builder, parameters the warning should name).
+#: (label, builder, indices of the parameters the warning should name).
 VARIANTS = [
     *[
         (
@@ -56,7 +56,7 @@ VARIANTS = [
         for snr in (10.0, 30.0, 50.0)
     ],
     *[
-        (case, CASES[case].build, CASES[case].parameter_names)
+        (case, CASES[case].build, tuple(range(len(CASES[case].parameter_names))))
         for case in ("a1", "b1", "c1", "c3", "a2", "b2")
     ],
 ]
@@ -68,7 +68,8 @@ STABILITY = {
 
 
 def fit(builder, seed, random_state):
-    """``identifiability_`` and the parameters the warning named."""
+    """``identifiability_``, the indices of the parameters the warning named
+    and the parameters' names."""
     data = builder(seed)
     cal = ModularBayesCalibrator(prior=data.prior, random_state=random_state, n_jobs=1)
     with threadpoolctl.threadpool_limits(1), warnings.catch_warnings(record=True) as w:
@@ -79,7 +80,7 @@ def fit(builder, seed, random_state):
     texts = [
         str(m.message) for m in w if issubclass(m.category, NonIdentifiabilityWarning)
     ]
-    named = tuple(n for n in names if any(f"{n} (" in t for t in texts))
+    named = tuple(j for j, n in enumerate(names) if any(f"{n} (" in t for t in texts))
     return np.asarray(cal.identifiability_, dtype=float), named, tuple(names)
 
 
