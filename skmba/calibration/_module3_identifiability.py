@@ -4,23 +4,31 @@ Near the posterior mean ``theta_bar`` the field data depend on theta through
 the emulator's sensitivities ``J = d m(X_e, theta) / d theta`` (nq x r,
 standardised). With only the noise and the emulator's own uncertainty
 ``V_0 = Lambda ⊗ I + Sigma_m ⊗ T(theta_bar)`` in the way, the data's
-information on theta is ``J' V_0^-1 J``. A discrepancy adds
-``Sigma_d ⊗ R_d`` and a mean ``(I ⊗ H_d) beta_d`` with a flat prior, which
-leaves ``J' Pi J`` with ``Pi = V^-1 - V^-1 X (X' V^-1 X)^-1 X' V^-1``,
-``V = V_0 + Sigma_d ⊗ R_d``, ``X = I ⊗ H_d``.
+information on theta is ``J' V_0^-1 J``: its inverse's diagonal gives
+``data_sd``, the linearised posterior sd of each parameter if the model had
+no error (the fitted noise variances, a flat prior on theta). A
+discrepancy adds ``Sigma_d ⊗ R_d`` and a mean ``(I ⊗ H_d) beta_d`` with a
+flat prior, which leaves ``J' Pi J`` with ``Pi = V^-1 - V^-1 X (X' V^-1
+X)^-1 X' V^-1``, ``V = V_0 + Sigma_d ⊗ R_d``, ``X = I ⊗ H_d``.
 
-``identifiability_[j]`` is the ratio of the linearised posterior standard
-deviations of ``theta_j`` without and with a discrepancy of plausible size:
-each response's discrepancy sd at the 95 % point of its prior
-(:meth:`~skmba.priors._hyperprior.Hyperprior.sd_quantile`), with the fitted
-roughness and correlation between responses. Near 1 the data identify
-theta whatever the discrepancy; near 0 a discrepancy of that size can mimic
-the effect of theta on the observed responses, and the width of theta's
-interval is set by what the prior says about the discrepancy, not by the
-data. Below :data:`IDENTIFIABILITY_THRESHOLD` ``fit`` warns
-(:class:`~skmba.exceptions.NonIdentifiabilityWarning`).
+``identifiability_[j]`` is ``data_sd[j]`` over theta_j's posterior sd (at
+most 1): the share of the interval's width that the data alone account
+for. The posterior integrates over the discrepancy's hyperparameters (the
+module-3 mixture) or plugs them in, so the diagnosis is integrated over
+module 2's posterior as the interval is. Near 1 the data identify theta
+whatever the discrepancy; near 0 the discrepancy widened the interval many
+times over: a discrepancy shaped like theta's effect on the observed
+responses mimics a change of theta, and the width is set by what the prior
+says about the discrepancy (its roughness range first), not by the data.
+Below :data:`IDENTIFIABILITY_THRESHOLD` ``fit`` warns
+(:class:`~skmba.exceptions.NonIdentifiabilityWarning`). Where the data carry
+no information at all (``data_sd`` infinite) the interval is the prior's,
+whatever the discrepancy: 1, no warning.
 
-The linearised posterior sd with that discrepancy, ``probe_sd``, also gives
+The linearised posterior sd with a discrepancy of plausible size, each
+response's sd at the 95 % point of its prior
+(:meth:`~skmba.priors._hyperprior.Hyperprior.sd_quantile`) with the fitted
+roughness and correlation between responses, ``probe_sd``, gives
 ``theta_robust_interval_`` (:func:`robust_interval`): theta's 95 % interval
 if the model error were of that plausible size, from the posterior mean and
 clipped to the prior's support. Where theta is identified it is about the
@@ -28,9 +36,13 @@ posterior interval; where it is not, most of the prior.
 
 Examples
 --------
+A sensitivity orthogonal to the discrepancy's constant mean, and a
+discrepancy of no size: the same sd with and without it.
+
 >>> import numpy as np
->>> information_ratio(np.eye(2)[:, :1], np.eye(2), np.eye(2), np.ones((2, 1)))
-array([0.])
+>>> J, V0 = np.array([[1.0], [-1.0]]), np.eye(2)
+>>> linearised_sds(J, V0, 0.0 * V0, np.ones((2, 1)))
+(array([0.70710678]), array([0.70710678]))
 """
 
 from dataclasses import dataclass
@@ -67,14 +79,17 @@ class Identifiability:
     Attributes
     ----------
     ratio : ndarray of shape (r,)
-        ``identifiability_``: linearised posterior sd without over with a
-        discrepancy of plausible size.
+        ``identifiability_``: ``data_sd`` over the posterior sd, at most 1.
+    data_sd : ndarray of shape (r,)
+        The linearised posterior sd without a discrepancy (``inf`` where
+        the data carry no information on the parameter).
     probe_sd : ndarray of shape (r,)
-        The linearised posterior sd with it (``inf`` where that discrepancy
-        can explain all of theta's effect).
+        The linearised posterior sd with a discrepancy of plausible size
+        (``inf`` where it can explain all of theta's effect).
     """
 
     ratio: np.ndarray
+    data_sd: np.ndarray
     probe_sd: np.ndarray
 
 
@@ -86,17 +101,6 @@ def _marginal_variances(info):
     with np.errstate(invalid="ignore"):
         out = np.einsum("ij,j,ij->i", vectors, inv, vectors)
     return np.where(np.isnan(out), np.inf, out)
-
-
-def information_ratio(J, V0, K_d, X_d):
-    """Linearised posterior sd ratio, without over with the discrepancy.
-
-    The arguments are those of :func:`linearised_sds`.
-    """
-    sd0, sd1 = linearised_sds(J, V0, K_d, X_d)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        ratio = sd0 / sd1
-    return np.where(np.isfinite(ratio), ratio, 0.0)
 
 
 def linearised_sds(J, V0, K_d, X_d):
@@ -132,7 +136,21 @@ def linearised_sds(J, V0, K_d, X_d):
     return np.sqrt(var0), np.sqrt(var1)
 
 
-def identifiability(model, theta, hyperprior):
+def data_share(data_sd, posterior_sd):
+    """``identifiability_``: ``data_sd / posterior_sd``, at most 1; 1 where
+    the data carry no information (``data_sd`` infinite).
+
+    Examples
+    --------
+    >>> data_share(np.array([0.1, np.inf, 2.0]), np.array([1.0, 1.0, 1.0]))
+    array([0.1, 1. , 1. ])
+    """
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ratio = np.asarray(data_sd, dtype=float) / np.asarray(posterior_sd, float)
+    return np.where(np.isnan(ratio), 1.0, np.minimum(ratio, 1.0))
+
+
+def identifiability(model, theta, posterior_sd, hyperprior):
     """``identifiability_`` of a fitted global model at ``theta`` (standardised).
 
     Parameters
@@ -140,6 +158,9 @@ def identifiability(model, theta, hyperprior):
     model : GlobalModel
         At the module-2 mode (its roughness, correlation and noise are used).
     theta : ndarray of shape (r,)
+        The posterior mean.
+    posterior_sd : ndarray of shape (r,)
+        Theta's posterior sd (standardised).
     hyperprior : Hyperprior
 
     Returns
@@ -168,7 +189,8 @@ def identifiability(model, theta, hyperprior):
         observed_block(K_d, obs),
         observed_rows(X_d, obs),
     )
-    return Identifiability(information_ratio(*args), linearised_sds(*args)[1])
+    data_sd, probe_sd = linearised_sds(*args)
+    return Identifiability(data_share(data_sd, posterior_sd), data_sd, probe_sd)
 
 
 def robust_interval(mean, probe_sd, prior, level=ROBUST_LEVEL):

@@ -261,9 +261,11 @@ def run_modules(
         earlier = None if inputs.warm is None else inputs.warm.module3.posterior
         module3 = fit_module3(inputs, module2, seeds[3], earlier=earlier)
         hyperprior = Hyperprior(units=inputs.units)
+    posterior = module3.posterior
     probe = identifiability(
         module3.log_post.model.base,
-        scaler.theta(module3.posterior.mean),
+        scaler.theta(posterior.mean),
+        np.sqrt(np.diag(posterior.cov)) / scaler.theta_scale,
         hyperprior,
     )
     return ModulesResult(inputs, module2, module3, probe)
