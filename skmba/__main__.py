@@ -433,12 +433,13 @@ def _report_identifiability(cal):
     if ident < IDENTIFIABILITY_THRESHOLD:
         _say(
             f"   identifiability_ of E is {ident:.2g} (below "
-            f"{IDENTIFIABILITY_THRESHOLD:.2f}; the calibrator warned): a "
-            "discrepancy of plausible size could mimic a change of E on both "
-            "responses, so the width of the interval comes from the prior on "
-            "the discrepancy, not from the data. Where the model error is "
-            "larger than that prior allows - a spring soft enough - the "
-            "interval misses E*. Other responses (the sensor ranking below) "
+            f"{IDENTIFIABILITY_THRESHOLD:.2f}; the calibrator warned): the data "
+            f"account for {ident:.0%} of E's posterior sd. A discrepancy shaped "
+            "like a change of E on both responses mimics it, so the width of "
+            "the interval comes from the prior on the discrepancy, not from the "
+            "data, and the interval misses E* when the model error has that "
+            "shape, as the spring's has, whatever its size. Other responses "
+            "(the sensor ranking below) "
             "or prior information on E are what identify it. Across plausible "
             "model errors (theta_robust_interval_) E lies in "
             f"[{cal.theta_robust_interval_[0, 0] / 1e3:.1f}, "
@@ -446,8 +447,8 @@ def _report_identifiability(cal):
         )
     else:
         _say(
-            f"   identifiability_ of E is {ident:.2g}: the data tell E from a "
-            "discrepancy of plausible size."
+            f"   identifiability_ of E is {ident:.2g}: the data account for "
+            "most of E's posterior sd, whatever the discrepancy."
         )
 
 

@@ -21,7 +21,7 @@ def test_quick_start_runs():
     # about 2.4 GPa wide only because of its floor on the discrepancy.
     sd = cal.theta_cov_[0, 0] ** 0.5
     assert 0.05e3 < sd < 0.5e3 and abs(cal.theta_mean_[0] - 70e3) > 5 * sd
-    assert cal.identifiability_[0] < 0.05
+    assert 0.05 < cal.identifiability_[0] < 0.25  # "about 0.13", below 1/3
     assert namespace["std"].shape == (3, 2)
     # the kernel search on raw inputs, scaled in the pipeline
     search = namespace["search"]

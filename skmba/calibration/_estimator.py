@@ -245,14 +245,14 @@ class ModularBayesCalibrator(
         The terms ``discrepancy_prior`` is stated in, relative to the
         standardised units: ``input_ratio`` (d,), ``response_ratio`` (q,).
     identifiability_ : ndarray of shape (r,)
-        Per parameter, its linearised posterior sd without a discrepancy over
-        that with a discrepancy of plausible size (each response's at the
-        95 % point of its sd's prior), near the posterior mean; below 1/3
-        ``fit`` warns (:class:`~skmba.exceptions.NonIdentifiabilityWarning`).
+        Per parameter, the share of its posterior sd that the data account
+        for: its linearised posterior sd without a discrepancy (near the
+        posterior mean) over its posterior sd, at most 1; below 1/3 ``fit``
+        warns (:class:`~skmba.exceptions.NonIdentifiabilityWarning`).
     theta_robust_interval_ : ndarray of shape (r, 2)
-        Per parameter, the posterior mean plus and minus 1.96 linearised
-        sds with ``identifiability_``'s discrepancy, clipped to the prior's
-        support (User Guide, "How honest are the intervals?").
+        Per parameter, the posterior mean -+ 1.96 linearised sds with a
+        discrepancy of each response's sd at the 95 % point of its prior,
+        within the prior's support (User Guide, "How honest are the intervals?").
     parameter_names_ : list of str
         The names of the calibration parameters: the keys of a dict prior
         (or, without a prior, the columns of a ``theta_sim`` DataFrame),

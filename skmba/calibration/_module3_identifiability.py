@@ -57,8 +57,7 @@ from skmba.calibration._field_replicates import noise_covariance
 from skmba.exceptions import NonIdentifiabilityWarning
 
 #: ``fit`` warns for a parameter whose ``identifiability_`` is below this:
-#: its posterior sd would grow more than threefold under a discrepancy of
-#: plausible size.
+#: the discrepancy more than tripled its posterior sd.
 IDENTIFIABILITY_THRESHOLD = 1.0 / 3.0
 #: Prior quantile of the discrepancy sd at which theta is probed.
 PROBE_LEVEL = 0.95
@@ -79,17 +78,13 @@ class Identifiability:
     Attributes
     ----------
     ratio : ndarray of shape (r,)
-        ``identifiability_``: ``data_sd`` over the posterior sd, at most 1.
-    data_sd : ndarray of shape (r,)
-        The linearised posterior sd without a discrepancy (``inf`` where
-        the data carry no information on the parameter).
+        ``identifiability_`` (:func:`data_share`).
     probe_sd : ndarray of shape (r,)
         The linearised posterior sd with a discrepancy of plausible size
         (``inf`` where it can explain all of theta's effect).
     """
 
     ratio: np.ndarray
-    data_sd: np.ndarray
     probe_sd: np.ndarray
 
 
@@ -136,21 +131,39 @@ def linearised_sds(J, V0, K_d, X_d):
     return np.sqrt(var0), np.sqrt(var1)
 
 
-def data_share(data_sd, posterior_sd):
-    """``identifiability_``: ``data_sd / posterior_sd``, at most 1; 1 where
-    the data carry no information (``data_sd`` infinite).
+def data_share(information, posterior_cov):
+    """``identifiability_``: per parameter, its posterior sd given the other
+    parameters over the data's alone, ``sqrt(P_jj / I_jj)``, at most 1.
+
+    ``information`` is the data's information ``J' V_0^-1 J`` (r, r),
+    ``posterior_cov`` theta's posterior covariance (r, r), ``P`` its
+    inverse; both standardised alike. For one parameter: the linearised sd
+    without a discrepancy over the posterior sd. 1 where the data carry no
+    information on the parameter, or the posterior none beyond the data's.
 
     Examples
     --------
-    >>> data_share(np.array([0.1, np.inf, 2.0]), np.array([1.0, 1.0, 1.0]))
-    array([0.1, 1. , 1. ])
+    One parameter whose data sd is 0.1 and posterior sd 1; then two whose
+    posterior sds are 1 but correlated: given the second, the first's is
+    0.14, against the data's 0.1 given the second; the second's, 0.14, is
+    within the data's 0.2:
+
+    >>> info = np.diag([100.0, 25.0])
+    >>> data_share(info[:1, :1], np.array([[1.0]]))
+    array([0.1])
+    >>> cov = np.array([[1.0, 0.99], [0.99, 1.0]])
+    >>> np.round(data_share(info, cov), 3)
+    array([0.709, 1.   ])
     """
+    L = np.linalg.cholesky(np.atleast_2d(posterior_cov))
+    root = linalg.solve_triangular(L, np.eye(len(L)), lower=True)
+    precision = np.sum(root**2, axis=0)  # diag(posterior_cov^-1)
     with np.errstate(invalid="ignore", divide="ignore"):
-        ratio = np.asarray(data_sd, dtype=float) / np.asarray(posterior_sd, float)
+        ratio = np.sqrt(precision / np.diag(np.atleast_2d(information)))
     return np.where(np.isnan(ratio), 1.0, np.minimum(ratio, 1.0))
 
 
-def identifiability(model, theta, posterior_sd, hyperprior):
+def identifiability(model, theta, posterior_cov, hyperprior):
     """``identifiability_`` of a fitted global model at ``theta`` (standardised).
 
     Parameters
@@ -159,8 +172,8 @@ def identifiability(model, theta, posterior_sd, hyperprior):
         At the module-2 mode (its roughness, correlation and noise are used).
     theta : ndarray of shape (r,)
         The posterior mean.
-    posterior_sd : ndarray of shape (r,)
-        Theta's posterior sd (standardised).
+    posterior_cov : ndarray of shape (r, r)
+        Theta's posterior covariance (standardised).
     hyperprior : Hyperprior
 
     Returns
@@ -189,8 +202,10 @@ def identifiability(model, theta, posterior_sd, hyperprior):
         observed_block(K_d, obs),
         observed_rows(X_d, obs),
     )
-    data_sd, probe_sd = linearised_sds(*args)
-    return Identifiability(data_share(data_sd, posterior_sd), data_sd, probe_sd)
+    C0 = linalg.cholesky(args[1], lower=True)
+    Jw = linalg.solve_triangular(C0, args[0], lower=True)
+    ratio = data_share(Jw.T @ Jw, posterior_cov)
+    return Identifiability(ratio, linearised_sds(*args)[1])
 
 
 def robust_interval(mean, probe_sd, prior, level=ROBUST_LEVEL):
@@ -238,8 +253,9 @@ def warn_if_confounded(values, names):
         return
     warn(
         f"The field data cannot tell {', '.join(weak)} from the model "
-        "discrepancy (identifiability_ below "
-        f"{IDENTIFIABILITY_THRESHOLD:.2f}): a discrepancy shaped like its "
+        "discrepancy (identifiability_, the share of its posterior sd that "
+        f"the data account for, below {IDENTIFIABILITY_THRESHOLD:.2f}): a "
+        "discrepancy shaped like its "
         "effect on the observed responses (e.g. proportional to them) "
         "mimics a change of it, so its interval reflects the discrepancy "
         "prior (mostly its roughness range; prior_sensitivity() shows how "

@@ -265,7 +265,7 @@ def run_modules(
     probe = identifiability(
         module3.log_post.model.base,
         scaler.theta(posterior.mean),
-        np.sqrt(np.diag(posterior.cov)) / scaler.theta_scale,
+        posterior.cov / np.outer(scaler.theta_scale, scaler.theta_scale),
         hyperprior,
     )
     return ModulesResult(inputs, module2, module3, probe)

@@ -95,3 +95,24 @@ def test_warning_names_the_parameter_and_the_remedies():
         warnings.simplefilter("error")
         warn_if_confounded(np.array([IDENTIFIABILITY_THRESHOLD + 0.01]), ["E"])
     assert issubclass(NonIdentifiabilityWarning, UserWarning)
+
+
+def test_data_share_is_the_conditional_sd_ratio_at_most_one():
+    # One parameter: the data's linearised sd over the posterior's.
+    assert data_share(np.array([[4.0]]), np.array([[1.0]]))[0] == 0.5
+    # Against the dense formula: sqrt(inv(cov)_jj / info_jj), capped at 1.
+    rng = np.random.default_rng(1)
+    A, B = rng.normal(size=(3, 3)), rng.normal(size=(3, 3))
+    info, cov = A @ A.T + np.eye(3), 0.05 * (B @ B.T + np.eye(3))
+    dense = np.sqrt(np.diag(np.linalg.inv(cov)) / np.diag(info))
+    np.testing.assert_allclose(data_share(info, cov), np.minimum(dense, 1.0))
+    # No information on the second parameter: its interval is the prior's
+    # whatever the discrepancy (1). A parameter tied to another along a
+    # ridge (E and I of a beam): wide marginals, but given the other the
+    # posterior is 10 times the data's width, which the share shows.
+    out = data_share(np.diag([100.0, 0.0]), np.eye(2))
+    np.testing.assert_array_equal(out, [0.1, 1.0])
+    # (log E, log I: the data pin their sum down, not their difference).
+    ridge = 100.0 * np.array([[1.0, -0.99995], [-0.99995, 1.0]])
+    info = np.array([[1.0e4, 1.0e4 - 1.0], [1.0e4 - 1.0, 1.0e4]])
+    assert np.all(data_share(info, ridge) < 0.2)
