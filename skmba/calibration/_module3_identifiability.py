@@ -13,17 +13,25 @@ X)^-1 X' V^-1``, ``V = V_0 + Sigma_d ⊗ R_d``, ``X = I ⊗ H_d``.
 
 ``identifiability_[j]`` is ``data_sd[j]`` over theta_j's posterior sd (at
 most 1): the share of the interval's width that the data alone account
-for. The posterior integrates over the discrepancy's hyperparameters (the
-module-3 mixture) or plugs them in, so the diagnosis is integrated over
-module 2's posterior as the interval is. Near 1 the data identify theta
+for (``"propagate"``, the default). The posterior integrates over the
+discrepancy's hyperparameters (the module-3 mixture), so the diagnosis is
+integrated over module 2's posterior as the interval is. Near 1 the data identify theta
 whatever the discrepancy; near 0 the discrepancy widened the interval many
 times over: a discrepancy shaped like theta's effect on the observed
 responses mimics a change of theta, and the width is set by what the prior
 says about the discrepancy (its roughness range first), not by the data.
 Below :data:`IDENTIFIABILITY_THRESHOLD` ``fit`` warns
 (:class:`~skmba.exceptions.NonIdentifiabilityWarning`). Where the data carry
-no information at all (``data_sd`` infinite) the interval is the prior's,
-whatever the discrepancy: 1, no warning.
+no information at all the interval is the prior's, whatever the
+discrepancy: 1, no warning. With several parameters each is judged given
+the others (:func:`data_share`): a parameter tied to another along a
+ridge is judged by the width across it.
+
+The plug-in (``discrepancy_uncertainty="plug-in"``) has no posterior of
+the hyperparameters to integrate over: an estimate near zero would leave
+the data's width and no warning where a discrepancy of theta's shape
+would go unseen. There ``identifiability_`` is the probe's ratio, ``data_sd``
+over ``probe_sd`` below: what a discrepancy of plausible size would do.
 
 The linearised posterior sd with a discrepancy of plausible size, each
 response's sd at the 95 % point of its prior
@@ -172,8 +180,11 @@ def identifiability(model, theta, posterior_cov, hyperprior):
         At the module-2 mode (its roughness, correlation and noise are used).
     theta : ndarray of shape (r,)
         The posterior mean.
-    posterior_cov : ndarray of shape (r, r)
-        Theta's posterior covariance (standardised).
+    posterior_cov : ndarray of shape (r, r) or None
+        Theta's posterior covariance (standardised), with the
+        hyperparameters integrated out; None for the plug-in, whose
+        estimate leaves no posterior to integrate over: the ratio is then
+        the probe's (module docstring).
     hyperprior : Hyperprior
 
     Returns
@@ -202,10 +213,14 @@ def identifiability(model, theta, posterior_cov, hyperprior):
         observed_block(K_d, obs),
         observed_rows(X_d, obs),
     )
+    data_sd, probe_sd = linearised_sds(*args)
+    if posterior_cov is None:  # the plug-in: the probe's counterfactual
+        with np.errstate(invalid="ignore", divide="ignore"):
+            ratio = np.where(np.isfinite(data_sd / probe_sd), data_sd / probe_sd, 0.0)
+        return Identifiability(ratio, probe_sd)
     C0 = linalg.cholesky(args[1], lower=True)
     Jw = linalg.solve_triangular(C0, args[0], lower=True)
-    ratio = data_share(Jw.T @ Jw, posterior_cov)
-    return Identifiability(ratio, linearised_sds(*args)[1])
+    return Identifiability(data_share(Jw.T @ Jw, posterior_cov), probe_sd)
 
 
 def robust_interval(mean, probe_sd, prior, level=ROBUST_LEVEL):

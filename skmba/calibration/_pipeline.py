@@ -262,10 +262,11 @@ def run_modules(
         module3 = fit_module3(inputs, module2, seeds[3], earlier=earlier)
         hyperprior = Hyperprior(units=inputs.units)
     posterior = module3.posterior
+    scale = np.outer(scaler.theta_scale, scaler.theta_scale)
     probe = identifiability(
         module3.log_post.model.base,
         scaler.theta(posterior.mean),
-        posterior.cov / np.outer(scaler.theta_scale, scaler.theta_scale),
+        posterior.cov / scale if propagate else None,
         hyperprior,
     )
     return ModulesResult(inputs, module2, module3, probe)
