@@ -77,8 +77,8 @@ print("identifiability_:", np.round(cal.identifiability_, 3))
 
 # %%
 # The bending stiffness is identified far better than E and I separately: its
-# CV (the posterior standard deviation over the mean) is 0.75 %, against
-# 20 % for E and 17 % for I, which are strongly negatively correlated
+# CV (the posterior standard deviation over the mean) is 1.2 %, against
+# 21 % for E and 18 % for I, which are strongly negatively correlated
 # (-0.985). As in the one-parameter example, the spring at the support
 # softens the real beam by the same fraction for both responses, so it is
 # confounded with the stiffness: the posterior of EI centres on the
@@ -86,9 +86,10 @@ print("identifiability_:", np.round(cal.identifiability_, 3))
 # the draws lie below it), 3.0 % below E* I*, which lies outside its 95 %
 # interval. ``fit`` warned about both parameters
 # (:class:`~skmba.exceptions.NonIdentifiabilityWarning`,
-# ``identifiability_`` 0.011 for each): a smooth discrepancy of plausible size
-# could mimic any change of E or I on these two responses, so what the data
-# pin down, the effective stiffness, need not be the true one.
+# ``identifiability_`` 0.04 and 0.05: given the other parameter, the data
+# account for 4-5 % of each one's posterior spread): a discrepancy shaped
+# like a change of the stiffness mimics it on these two responses, so what
+# the data pin down, the effective stiffness, need not be the true one.
 #
 # Where along the ridge the mass sits is not decided by the data, which
 # carry no information along it, but by the prior and by the small errors

@@ -67,7 +67,7 @@ print(f"identifiability_:    {cal.identifiability_[0]:.2g}")
 # deviation of 114 MPa, and E* lies far outside the 95 % credible interval.
 # ``fit`` said so beforehand: it raised a
 # :class:`~skmba.exceptions.NonIdentifiabilityWarning` for E
-# (``identifiability_`` 0.0008, far below the threshold of 1/3). The thesis
+# (``identifiability_`` 0.15, below the threshold of 1/3). The thesis
 # reports 70302 ± 6915 MPa.
 #
 # The posterior sits on the effective modulus printed below, for a physical
@@ -79,22 +79,21 @@ print(f"identifiability_:    {cal.identifiability_[0]:.2g}")
 # tell the spring from a softer beam, and the fitted discrepancy is
 # negligible (its variances below, relative to the simulated ones).
 #
-# What the calibrator can and does do is say so. ``identifiability_``
-# compares the posterior spread of E without a discrepancy with the spread
-# it would have with a discrepancy of plausible size (the 95 % point of its
-# prior): here a smooth discrepancy could mimic any change of E on these two
-# responses, so the interval rests on the prior of the discrepancy rather
-# than on the data, and it can miss E* whenever the model error is of this
-# kind (see :ref:`module-2-uncertainty`). No default can make it right:
-# the thesis' plug-in with the Table 6.2 floor on the discrepancy variance
+# What the calibrator can and does do is say so. ``identifiability_`` is the
+# share of E's posterior spread that the data account for: the spread E would
+# have if the model had no error, over the posterior's. Here the data account
+# for 15 %: a discrepancy shaped like a change of E on these two responses
+# mimics it, so the interval rests on the prior of the discrepancy rather than
+# on the data, and it can miss E* whenever the model error is of this kind
+# (see :ref:`module-2-uncertainty`). No default can make it right: the thesis'
+# plug-in with the Table 6.2 floor on the discrepancy variance
 # (``discrepancy_uncertainty="plug-in"``) gives 68242 ± 2298 MPa on these
-# data, an interval that covers E* only because of the floor, which makes
-# the intervals 2-3 times too wide where E is identifiable. What identifies
-# E is another response that the spring affects differently (the tip
-# rotation, a displacement along the span: thesis section 6.3, sensor
-# design), or prior information on E (Brynjarsdottir and O'Hagan, 2014,
-# *Learning about physical parameters: the importance of model
-# discrepancy*, Inverse Problems 30).
+# data, an interval that covers E* only because of the floor, which makes the
+# intervals 2-3 times too wide where E is identifiable. What identifies E is
+# another response that the spring affects differently (the tip rotation, a
+# displacement along the span: thesis section 6.3, sensor design), or prior
+# information on E (Brynjarsdottir and O'Hagan, 2014, *Learning about physical
+# parameters: the importance of model discrepancy*, Inverse Problems 30).
 
 L, I, K = 3000.0, 6.75e8, 1.5e12
 E_effective = E_true / (1 + 3 * E_true * I / (K * L))

@@ -291,9 +291,10 @@ for size in range(1, 6):
 # -------------------------------
 # The preposterior analysis cannot see this bridge's discrepancy, but the
 # calibration of each subset can tell whether its data could tell k from
-# *a* discrepancy: ``identifiability_`` compares the posterior spread of k
-# with and without a discrepancy of plausible size, and below 1/3 ``fit``
-# warns. With the calibrator's default module 2
+# *a* discrepancy: with the default module 2 ``identifiability_`` is the
+# share of k's posterior spread that the data account for (with the
+# plug-in above, the share a discrepancy of plausible size would leave),
+# and below 1/3 ``fit`` warns. With the calibrator's default module 2
 # (``discrepancy_uncertainty="propagate"``: the discrepancy's size
 # integrated out under a weakly informative prior instead of plugged in),
 # the intervals of three subsets:
@@ -309,11 +310,12 @@ for names in (["SB"], ["SI"], gauges):
 
 # %%
 # The default widens the intervals where the data leave room for a
-# discrepancy, and keeps the warning: ``SB`` alone gives [304, 820] N/mm,
-# ``SI`` alone [321, 553] N/mm, which just reaches k* = 552.3 N/mm, and all
-# five gauges [312, 396] N/mm, which misses it. No prior on the size of a
-# discrepancy can make these intervals right; the warning (and
-# ``identifiability_`` of 0.01 to 0.12) is what tells the engineer that
-# they rest on the discrepancy prior, and that k needs other information:
-# a gauge that a temperature gradient cannot mimic, a measured gradient, or
-# prior knowledge of k.
+# discrepancy: ``SB`` alone gives [304, 802] N/mm, which holds k* = 552.3
+# N/mm, with the data accounting for 35 % of its width (just above the
+# threshold: no warning); ``SI`` alone gives [323, 517] N/mm and all five
+# gauges [308, 393] N/mm, which miss it, and both warn (``identifiability_``
+# 0.06 and 0.10). No prior on the size of a discrepancy can make these
+# intervals right; the warning is what tells the engineer that they rest on
+# the discrepancy prior, and that k needs other information: a gauge that a
+# temperature gradient cannot mimic, a measured gradient, or prior
+# knowledge of k.
