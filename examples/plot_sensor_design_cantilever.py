@@ -109,8 +109,8 @@ for subset, score in sorted(
 
 # %%
 # With all five responses the calibration is expected to shrink the prior
-# variance of E to about a fifth (score 0.210); with a single response
-# only to 79-83 % of it. The discrepancy prior of Table 6.2 is very wide:
+# variance of E to about a fifth (score 0.233); with a single response
+# only to 82-85 % of it. The discrepancy prior of Table 6.2 is very wide:
 # a discrepancy may be up to :math:`\sqrt{20} \approx 4.5` times as large
 # as the whole spread of a response over the simulations, and such a
 # discrepancy can mimic almost any change of E.
@@ -166,7 +166,7 @@ print_ranking(designer, "Single responses, Table 6.2 priors:")
 
 # %%
 # Under the priors of Table 6.2 the five single responses score within
-# one Monte Carlo standard error of each other (0.789 to 0.828): alone,
+# one Monte Carlo standard error of each other (0.821 to 0.848): alone,
 # each is expected to remove only a small part of the prior variance, and
 # their order is not reliable (another ``random_state`` gives
 # another order). In the thesis these priors classed the tip rotation C as
@@ -212,7 +212,7 @@ print(
 
 # %%
 # With the informative prior the rotation alone is expected to reduce the
-# prior variance of E by almost 90 % (score 0.115) and becomes the best
+# prior variance of E by 86 % (score 0.137) and becomes the best
 # sensor by far.
 # Every subset that contains C improves with it (thesis Fig. 6.4), and the
 # best subset of each size now contains C.
@@ -321,43 +321,41 @@ plt.show()
 # * The calibrations use the designer's module 2: the thesis' plug-in
 #   (``discrepancy_uncertainty="plug-in"``) with the calibrator's default
 #   ranges (Table 6.2's). Their posterior standard deviations range from
-#   1.7 to 10.3 GPa, and the 95 % intervals of 30 of the 31 subsets contain
-#   E* (that of B, D and E stops just short of it).
-# * Of the single responses, the energy B (0.6 %), the tip displacement A
-#   (1.6 %) and the rotation C (1.8 %) give small biases, the mid-span and
-#   quarter-span displacements D and E large ones (7.3 % and 8.1 %). The
+#   1.8 to 4.3 GPa: 3.5 to 4.3 GPa for single responses, 2.3 to 2.8 GPa
+#   for pairs, 1.8 to 2.4 GPa for three or more. Every posterior mean lies
+#   within 2.5 posterior standard deviations of E* (A, C, D and E the
+#   farthest).
+# * Of the single responses, the energy B (0.2 %), the tip displacement A
+#   (1.1 %) and the rotation C (2.2 %) give small biases, the mid-span and
+#   quarter-span displacements D and E large ones (7.2 % and 7.9 %). The
 #   thesis too found C among the least biased, the Type II error of its
 #   Fig. 6.3.
-# * More sensors mean neither less bias nor a narrower posterior. The
-#   biases spread from 0.6 % (B alone) to 10.9 % (A, C and D), and every
-#   subset of four or five responses leaves 3.7 % to 9.5 %, more than A, B
-#   or C alone. The widest posteriors (standard deviations of 9.5 to 10.3
-#   GPa) belong to the subsets with three or four of A, C, D and E and
-#   without B: with the tip force as the only load, these four are exactly
-#   proportional to each other, in the model and in reality. Single
-#   responses give 3.0 to 3.7 GPa, B with one other response 1.9 to 2.1
-#   GPa, the other pairs 4.0 to 4.5 GPa.
+# * More sensors mean a narrower posterior, not less bias. The biases
+#   spread from 0.2 % (B alone) to 7.9 % (E alone), and the subsets of four
+#   or five responses leave 1.3 % to 6.9 %, more than B or A alone: with
+#   the tip force as the only load, the responses are nearly proportional
+#   to each other, in the model and in reality.
 # * Every one of the 31 fits raised a ``NonIdentifiabilityWarning``
-#   (``identifiability_`` of E 0.002 to 0.130): in the model every response
+#   (``identifiability_`` of E 0.002 to 0.071): in the model every response
 #   is a function of F times 1/E, so a smooth discrepancy in F can mimic a
 #   change of E on any subset, and the width of each interval rests
 #   on the discrepancy prior rather than on the data (see
 #   :ref:`module-2-uncertainty`).
-# * Under Table 6.2 the FPA score falls with every response added, but its
-#   rank correlations with the bias and with the posterior variance of the
-#   actual calibration are -0.19 and +0.06: it barely ranks either. The
-#   FPA's synthetic field data come from the wide discrepancy prior, under
-#   which each response adds information; the real data have a small
-#   discrepancy and redundant responses.
+# * Under Table 6.2 the FPA score falls with every response added, and its
+#   rank correlation with the posterior variance of the actual calibration
+#   is +0.89: it foresees the narrowing. With the bias it is -0.10: it
+#   cannot rank that. The FPA's synthetic field data come from the wide
+#   discrepancy prior, under which each response adds information; the
+#   real data have a small discrepancy and redundant responses.
 # * The informative prior moves C and every subset that contains it to the
 #   low scores. That agrees with C's small bias, but its best pair and best
-#   four-response subset, C with E (5.1 %) and A, B, C and E (4.8 %), are
+#   four-response subset, C with E (2.7 %) and A, B, C and E (1.5 %), are
 #   more biased than B alone (the Type I errors of thesis Fig. 6.4); its
-#   rank correlations are -0.12 with the bias and -0.10 with the posterior
+#   rank correlations are +0.28 with the bias and +0.56 with the posterior
 #   variance.
 #
 # The lesson of section 6.3 holds: the ranking depends on the discrepancy
 # prior, and a modeller's knowledge of which responses the model gets right
 # is worth encoding in it. Without it, the FPA's ranking of single responses
-# is within Monte Carlo noise, and its preference for many sensors does not
-# carry over to the calibration of this beam.
+# is within Monte Carlo noise, and its preference for many sensors carries
+# over to the width of the calibration of this beam, not to its bias.

@@ -245,9 +245,9 @@ for size in range(1, 6):
 #
 # * The calibration splits the subsets in two groups (right panel). With
 #   only upper-chord gauges (``SB``, ``SH``, both), the posterior of k
-#   stays nearly as wide as the prior (standard deviations of 178 to 184
+#   stays nearly as wide as the prior (standard deviations of 175 to 184
 #   N/mm, against 202 N/mm for the uniform prior), its mean lands 1 % to
-#   3.5 % below k*, and k* lies inside its 95 % interval: these gauges
+#   4.8 % below k*, and k* lies inside its 95 % interval: these gauges
 #   barely feel the spring, so the data say little, and say nothing wrong.
 #   Every subset with a lower-chord gauge (``SA``, ``SG``, ``SI``) gives a
 #   posterior with a standard deviation of 5 to 12 N/mm around a value 21 %
@@ -261,21 +261,21 @@ for size in range(1, 6):
 #   simulated variance: module 2 explains the lower-chord readings by a
 #   softer spring with almost no discrepancy, and nothing widens their
 #   posterior. But the calibrator does not stay silent: its
-#   ``identifiability_`` is 0.007 to 0.023 for every subset with a
-#   lower-chord gauge (0.13 to 0.15 for the upper-chord ones), and every
+#   ``identifiability_`` is 0.007 to 0.020 for every subset with a
+#   lower-chord gauge (0.14 to 0.16 for the upper-chord ones), and every
 #   one of the 31 fits raised a ``NonIdentifiabilityWarning``: on this
 #   bridge a smooth discrepancy in temperature could mimic any change of k
 #   on these gauges, so the data alone cannot locate k.
 # * The FPA criterion falls with the number of gauges (left panel) and
-#   barely separates the gauges of one size (0.78 to 0.82 for the single
-#   gauges). Its rank correlation with the posterior variance is +0.62: it
+#   barely separates the gauges of one size (0.77 to 0.82 for the single
+#   gauges). Its rank correlation with the posterior variance is +0.60: it
 #   foresees that more lower-chord gauges give narrower posteriors. Its rank
-#   correlation with the bias is -0.17: it cannot foresee the confident,
+#   correlation with the bias is -0.14: it cannot foresee the confident,
 #   biased posteriors, because its synthetic field data come from
 #   discrepancy priors under which every gauge adds information, not from
 #   the particular discrepancy of this bridge. Its best single gauge,
 #   ``SH``, happens to be the least biased (1.0 %), but its best pair,
-#   ``SA`` and ``SI``, gives 34.5 % where ``SB`` and ``SH`` give 3.5 %.
+#   ``SA`` and ``SH``, gives 43.7 % where ``SB`` and ``SH`` give 4.8 %.
 # * In the thesis too, the best FPA configurations of three to five gauges
 #   had biases of 0 % to 52 % (Table 6.4), and the bias grew with the number
 #   of sensors in the central region (Fig. 6.7b).
