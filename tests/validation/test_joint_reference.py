@@ -191,11 +191,17 @@ def test_study_on_a1_converges(record_property):
         "a1",
         0,
         n_refits=0,
-        target_ess=None,
+        # Runs of 3000 draws, extended until ESS 400 and R-hat 1.01 (the
+        # study's own rule): fixed lengths of 3000-6000 draws left R-hat at
+        # 1.010-1.022 with today's emulator (ESS 470-530); this one stops
+        # after 17300 draws per chain at R-hat 1.005, ESS 1124 (75 s).
+        target_ess=400,
         n_samples=3000,
+        max_samples=20000,
         burn_in=2000,
         n_conditionals=100,
     )
+    assert record["n_samples"] < 20000, "the chains did not reach their target"
     assert np.all(record["rhat"] <= 1.01), record["rhat"]
     assert np.all(record["ess"] >= 400), record["ess"]
     row = next(joint_reference.rows([record]))
