@@ -1059,12 +1059,12 @@ def test_batched_prediction_equals_the_unbatched_one(monkeypatch):
 
 
 # ------------------------------------------------------------ large emulators
-@pytest.mark.slow  # about 30 N=2500 likelihoods: 40-100 s on two cores
+@pytest.mark.slow  # N=2500 likelihoods: about 40 s on two cores
 def test_large_fit_starts_from_a_subsample_with_fewer_full_evaluations(monkeypatch):
     # N > WARM_START_ABOVE: the search runs on WARM_START_SAMPLES points
     # first, then refines on all of them from that optimum; it reaches the
     # same likelihood with no more N x N evaluations (5 and 5 since the
-    # search stops at its predicted gain; 40-100 before).
+    # search stops at its predicted gain; the cold search took more before).
     n = 2500
     rng = np.random.default_rng(22)
     X = rng.uniform(size=(n, 2))
