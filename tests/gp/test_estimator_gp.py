@@ -1059,7 +1059,7 @@ def test_batched_prediction_equals_the_unbatched_one(monkeypatch):
 
 
 # ------------------------------------------------------------ large emulators
-@pytest.mark.slow  # N=2500 likelihoods: about 40 s on two cores
+@pytest.mark.slow  # full N=2500 likelihoods, twice over
 def test_large_fit_starts_from_a_subsample_with_fewer_full_evaluations(monkeypatch):
     # N > WARM_START_ABOVE: the search runs on WARM_START_SAMPLES points
     # first, then refines on all of them from that optimum; it reaches the
