@@ -245,10 +245,10 @@ class ModularBayesCalibrator(
         The terms ``discrepancy_prior`` is stated in, relative to the
         standardised units: ``input_ratio`` (d,), ``response_ratio`` (q,).
     identifiability_ : ndarray of shape (r,)
-        Per parameter, the share of its posterior sd that the data account
-        for: its linearised posterior sd without a discrepancy (near the
-        posterior mean) over its posterior sd, at most 1; below 1/3 ``fit``
-        warns (:class:`~skmba.exceptions.NonIdentifiabilityWarning`).
+        Per parameter given the others, the share of its posterior sd the
+        data account for (linearised, without a discrepancy), at most 1; the
+        plug-in's: the share a plausible discrepancy would leave. Below 1/3
+        ``fit`` warns (:class:`~skmba.exceptions.NonIdentifiabilityWarning`).
     theta_robust_interval_ : ndarray of shape (r, 2)
         Per parameter, the posterior mean -+ 1.96 linearised sds with a
         discrepancy of each response's sd at the 95 % point of its prior,

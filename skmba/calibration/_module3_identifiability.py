@@ -15,9 +15,9 @@ X)^-1 X' V^-1``, ``V = V_0 + Sigma_d ⊗ R_d``, ``X = I ⊗ H_d``.
 most 1): the share of the interval's width that the data alone account
 for (``"propagate"``, the default). The posterior integrates over the
 discrepancy's hyperparameters (the module-3 mixture), so the diagnosis is
-integrated over module 2's posterior as the interval is. Near 1 the data identify theta
-whatever the discrepancy; near 0 the discrepancy widened the interval many
-times over: a discrepancy shaped like theta's effect on the observed
+integrated over module 2's posterior as the interval is. Near 1 the data
+identify theta whatever the discrepancy; near 0 the discrepancy widened
+the interval many times over: a discrepancy shaped like theta's effect on the observed
 responses mimics a change of theta, and the width is set by what the prior
 says about the discrepancy (its roughness range first), not by the data.
 Below :data:`IDENTIFIABILITY_THRESHOLD` ``fit`` warns
@@ -268,9 +268,9 @@ def warn_if_confounded(values, names):
         return
     warn(
         f"The field data cannot tell {', '.join(weak)} from the model "
-        "discrepancy (identifiability_, the share of its posterior sd that "
-        f"the data account for, below {IDENTIFIABILITY_THRESHOLD:.2f}): a "
-        "discrepancy shaped like its "
+        f"discrepancy (identifiability_ below {IDENTIFIABILITY_THRESHOLD:.2f}: "
+        "the discrepancy more than triples its interval's width, or would at "
+        "a plausible size with the plug-in): a discrepancy shaped like its "
         "effect on the observed responses (e.g. proportional to them) "
         "mimics a change of it, so its interval reflects the discrepancy "
         "prior (mostly its roughness range; prior_sensitivity() shows how "
