@@ -127,16 +127,26 @@ def linearised_sds(J, V0, K_d, X_d):
     -------
     sd0, sd1 : ndarray of shape (r,)
     """
-    C0 = linalg.cholesky(V0, lower=True)
-    Jw = linalg.solve_triangular(C0, J, lower=True)
-    var0 = _marginal_variances(Jw.T @ Jw)
+    var0 = _marginal_variances(data_information(J, V0))
+    var1 = _marginal_variances(probe_information(J, V0, K_d, X_d))
+    return np.sqrt(var0), np.sqrt(var1)
+
+
+def data_information(J, V0):
+    """The data's information on theta without a discrepancy, ``J' V0^-1 J``."""
+    Jw = linalg.solve_triangular(linalg.cholesky(V0, lower=True), J, lower=True)
+    return Jw.T @ Jw
+
+
+def probe_information(J, V0, K_d, X_d):
+    """Its information with the discrepancy ``K_d`` and mean basis ``X_d``
+    (flat prior on the coefficients), ``J' Pi J`` (module docstring)."""
     C1 = linalg.cholesky(V0 + K_d, lower=True)
     Jw1 = linalg.solve_triangular(C1, J, lower=True)
     Xw1 = linalg.solve_triangular(C1, X_d, lower=True)
     Q, _ = np.linalg.qr(Xw1)
     Jp = Jw1 - Q @ (Q.T @ Jw1)
-    var1 = _marginal_variances(Jp.T @ Jp)
-    return np.sqrt(var0), np.sqrt(var1)
+    return Jp.T @ Jp
 
 
 def data_share(information, posterior_cov):
@@ -163,9 +173,8 @@ def data_share(information, posterior_cov):
     >>> np.round(data_share(info, cov), 3)
     array([0.709, 1.   ])
     """
-    L = np.linalg.cholesky(np.atleast_2d(posterior_cov))
-    root = linalg.solve_triangular(L, np.eye(len(L)), lower=True)
-    precision = np.sum(root**2, axis=0)  # diag(posterior_cov^-1)
+    # diag(posterior_cov^-1), inf along a direction the posterior pins down
+    precision = _marginal_variances(np.atleast_2d(posterior_cov))
     with np.errstate(invalid="ignore", divide="ignore"):
         ratio = np.sqrt(precision / np.diag(np.atleast_2d(information)))
     return np.where(np.isnan(ratio), 1.0, np.minimum(ratio, 1.0))
@@ -213,14 +222,14 @@ def identifiability(model, theta, posterior_cov, hyperprior):
         observed_block(K_d, obs),
         observed_rows(X_d, obs),
     )
-    data_sd, probe_sd = linearised_sds(*args)
-    if posterior_cov is None:  # the plug-in: the probe's counterfactual
-        with np.errstate(invalid="ignore", divide="ignore"):
-            ratio = np.where(np.isfinite(data_sd / probe_sd), data_sd / probe_sd, 0.0)
-        return Identifiability(ratio, probe_sd)
-    C0 = linalg.cholesky(args[1], lower=True)
-    Jw = linalg.solve_triangular(C0, args[0], lower=True)
-    return Identifiability(data_share(Jw.T @ Jw, posterior_cov), probe_sd)
+    information = data_information(*args[:2])
+    probe_sd = np.sqrt(_marginal_variances(probe_information(*args)))
+    if posterior_cov is not None:
+        return Identifiability(data_share(information, posterior_cov), probe_sd)
+    # the plug-in: the probe's counterfactual
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ratio = np.sqrt(_marginal_variances(information)) / probe_sd
+    return Identifiability(np.where(np.isfinite(ratio), ratio, 0.0), probe_sd)
 
 
 def robust_interval(mean, probe_sd, prior, level=ROBUST_LEVEL):
