@@ -6,8 +6,13 @@ is an integral over the discrepancy and noise hyperparameters ``phi``::
 
     p(theta | data) ∝ p(theta) ∫ p(data | theta, phi) p(phi) d phi,
 
-computed here on a trapezoid grid over theta (:class:`ThetaGrid`) and by
-importance sampling over ``phi``:
+computed here on a trapezoid grid over theta and by importance sampling
+over ``phi``. Each draw's log likelihood is evaluated on a coarse grid
+(:class:`ThetaGrid`, spacing :data:`GRID_STEP` first-pass sds) and carried
+to a finer one for the integral by a cubic spline (it is smooth in theta,
+nearly quadratic where the draw's conditional posterior is narrow), checked
+against exact values at the coarse midpoints before the result is returned
+(:func:`_spline_error`):
 
 1. :func:`marginal_laplace`: the mode and Hessian of the posterior of ``phi``
    with theta integrated out on the grid, ``log p(phi) + log ∫ p(theta)
@@ -20,9 +25,10 @@ importance sampling over ``phi``:
    scramble per block, and the prior), added until the Monte Carlo standard
    errors of theta's posterior mean, sd and 95 % interval ends, from the
    spread of the blocks' own estimates (randomised quasi-Monte Carlo), are
-   below ``tol`` posterior sds; the grid is refined where a draw's
-   conditional posterior is narrower than its spacing and extended where
-   mass reaches an end that is not the prior's.
+   below ``tol`` posterior sds; the fine grid is refined where a draw's
+   conditional posterior is narrower than its spacing, the coarse one where
+   the spline misses the exact values, and both extended where mass
+   reaches an end that is not the prior's.
 
 :class:`ConvergedIntegral` holds the result: the draws and weights of module
 3's mixture, the posterior of theta on the grid, the posterior mean of the
@@ -40,7 +46,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import optimize, special
+from scipy import interpolate, optimize, special
 
 from skmba._core.linalg import FactorizationError
 from skmba._core.validation import seed_sequence
@@ -53,6 +59,9 @@ from skmba.calibration._module2_posterior import (
 from skmba.calibration._module3_mixture import ModelMixture
 from skmba.mcmc._posterior import PosteriorResult
 
+#: The tolerance of ``discrepancy_tol="auto"``, in posterior sds: the sd's
+#: coefficient of variation over seeds is about this (docs/validity.rst).
+AUTO_TOL = 0.05
 #: Draws per randomised block (a power of two, for the Halton points).
 N_BLOCK = 128
 #: Blocks before the first check of the error (its own estimate needs them).
@@ -63,16 +72,31 @@ MAX_DRAWS = 4096
 INFLATION = 1.5
 #: Share of each block drawn from the prior (defensive mixture).
 PRIOR_SHARE = 0.125
-#: Half-width of the first grid, in first-pass posterior sds; its spacing.
-GRID_HALF_WIDTH, GRID_STEP = 7.0, 0.4
+#: Half-width of the first grid, in first-pass posterior sds; the spacing of
+#: the nodes where the likelihood is evaluated.
+GRID_HALF_WIDTH, GRID_STEP = 7.0, 1.2
+#: Integration nodes per evaluation spacing at first (the spline fills them).
+FINE_FACTOR = 4
+#: Most integration nodes.
+MAX_FINE_NODES = 1200
+#: Largest error of the spline, in log likelihood, at a coarse midpoint
+#: within :data:`_RELEVANT` of its draw's largest log posterior, above which
+#: the coarse grid is refined (1 % of the density there).
+SPLINE_TOL = 0.01
+#: Log posterior below a draw's largest where its spline is not checked.
+_RELEVANT = 25.0
+#: Draws checked against the spline: those carrying the most weight.
+_N_CHECKED = 32
 #: The interval whose ends the error covers.
 INTERVAL = (0.025, 0.975)
 #: Module-4 pairs (theta, phi draw), stratified from the joint posterior.
 N_RULE_PAIRS = 256
 #: Relative step of the finite differences of the marginal's mode search.
 _STEP = 1e-2
-#: Posterior mass at a grid end (not the prior's) that extends the grid.
-_END_MASS = 1e-9
+#: Posterior mass within a coarse spacing of a grid end (not the prior's)
+#: that extends the grid: a tail of 1e-7 at 20 sds moves the variance by
+#: 4e-5 of itself, far below any tolerance of the summaries.
+_END_MASS = 1e-7
 #: Posterior weight of draws whose conditional posterior of theta is
 #: narrower than half the grid's spacing, above which the grid is refined
 #: (at half a spacing the trapezoid rule's relative error on a Gaussian is
@@ -85,7 +109,7 @@ END_TOLERANCE = 2.0
 #: draw).
 _MAX_NODES = 600
 #: Most refinements or extensions of the grid.
-_GRID_CHANGES = 6
+_GRID_CHANGES = 8
 
 
 @dataclass(frozen=True)
@@ -116,7 +140,9 @@ class MonteCarloError:
 
 @dataclass(frozen=True)
 class ThetaGrid:
-    """A trapezoid grid over one parameter (user units).
+    """A trapezoid grid over one parameter (user units): a lattice of
+    spacing ``step``, whose end intervals may be shorter where it stops at
+    the prior's 0.9999 interval.
 
     Attributes
     ----------
@@ -125,49 +151,79 @@ class ThetaGrid:
         ``log`` of the trapezoid weight times the prior density.
     support : tuple
         The prior's 0.9999 interval: ends at it are not extended.
+    step : float
+        The lattice's spacing.
     """
 
     nodes: np.ndarray
     log_weights: np.ndarray
     support: tuple
+    step: float
 
     @classmethod
-    def build(cls, prior, lo, hi, n_nodes):
-        """``n_nodes`` equally spaced nodes on ``[lo, hi]`` inside the prior's
-        0.9999 interval."""
-        support = tuple(prior.bounds(0.9999)[0])
-        lo, hi = max(lo, support[0]), min(hi, support[1])
-        nodes = np.linspace(lo, hi, max(int(n_nodes), 3))
-        trapezoid = np.full(len(nodes), nodes[1] - nodes[0])
-        trapezoid[[0, -1]] *= 0.5
+    def build(cls, prior, nodes, step, support=None):
+        """The trapezoid rule of the increasing ``nodes``."""
+        nodes = np.asarray(nodes, dtype=float)
+        support = support or tuple(prior.bounds(0.9999)[0])
+        trapezoid = 0.5 * (
+            np.diff(nodes, prepend=nodes[0]) + np.diff(nodes, append=nodes[-1])
+        )
         with np.errstate(divide="ignore"):
             log_prior = np.ravel(prior.logpdf(nodes[:, None]))
-        return cls(nodes, np.log(trapezoid) + log_prior, support)
+        return cls(nodes, np.log(trapezoid) + log_prior, support, float(step))
 
     @classmethod
     def around(cls, prior, mean, sd):
         """The first grid: :data:`GRID_HALF_WIDTH` sds each side of ``mean``,
-        spacing :data:`GRID_STEP` sds."""
-        n_nodes = 2 * math.ceil(GRID_HALF_WIDTH / GRID_STEP) + 1
-        return cls.build(
-            prior, mean - GRID_HALF_WIDTH * sd, mean + GRID_HALF_WIDTH * sd, n_nodes
-        )
-
-    @property
-    def step(self):
-        return float(self.nodes[1] - self.nodes[0])
+        spacing :data:`GRID_STEP` sds, inside the prior's 0.9999 interval."""
+        support = tuple(prior.bounds(0.9999)[0])
+        step = GRID_STEP * sd
+        half = math.ceil(GRID_HALF_WIDTH / GRID_STEP)
+        lattice = mean + step * np.arange(-half, half + 1)
+        nodes = _clipped(lattice, *support, step)
+        return cls.build(prior, nodes, step, support)
 
     def refined(self, prior):
         """The grid with a node between each two (the old nodes kept)."""
-        return self.build(prior, self.nodes[0], self.nodes[-1], 2 * len(self.nodes) - 1)
+        t = self.nodes
+        nodes = np.empty(2 * len(t) - 1)
+        nodes[::2], nodes[1::2] = t, 0.5 * (t[1:] + t[:-1])
+        return self.build(prior, nodes, 0.5 * self.step, self.support)
+
+    def subdivided(self, prior, factor):
+        """``factor`` equal spacings in each of the grid's (its nodes kept)."""
+        t = self.nodes
+        inner = t[:-1, None] + np.diff(t)[:, None] * (np.arange(factor) / factor)
+        return self.build(
+            prior, np.r_[inner.ravel(), t[-1]], self.step / factor, self.support
+        )
 
     def extended(self, prior, lower, upper):
-        """The grid extended by a quarter of its width at the flagged ends,
-        on the same spacing."""
-        width = self.nodes[-1] - self.nodes[0]
-        lo = self.nodes[0] - 0.25 * width * lower
-        hi = self.nodes[-1] + 0.25 * width * upper
-        return self.build(prior, lo, hi, round((hi - lo) / self.step) + 1)
+        """The grid extended on its lattice by a quarter of its width at the
+        flagged ends, within the prior's 0.9999 interval; and the numbers of
+        nodes added below and above (the old nodes are kept between)."""
+        t, h = self.nodes, self.step
+        n_add = max(math.ceil(0.25 * (t[-1] - t[0]) / h), 1)
+        below = t[0] - h * np.arange(n_add, 0, -1) if lower else t[:0]
+        above = t[-1] + h * np.arange(1, n_add + 1) if upper else t[:0]
+        lo, hi = self.support
+        below, above = _clipped(below, lo, np.inf, h), _clipped(above, -np.inf, hi, h)
+        nodes = np.r_[below, t, above]
+        return self.build(prior, nodes, h, self.support), len(below), len(above)
+
+
+def _clipped(points, lo, hi, step):
+    """The increasing ``points`` inside ``(lo, hi)``, with ``lo`` (``hi``) in
+    place of those at or beyond it, and of the nearest inside when that is
+    within a quarter step of it."""
+    inside = points[(points > lo) & (points < hi)]
+    low = len(points) > 0 and points[0] <= lo
+    high = len(points) > 0 and points[-1] >= hi
+    if low and len(inside) and inside[0] - lo < 0.25 * step:
+        inside = inside[1:]
+    if high and len(inside) and hi - inside[-1] < 0.25 * step:
+        inside = inside[:-1]
+    return np.r_[[lo] if low else [], inside, [hi] if high else []]
 
 
 class _Evaluator:
@@ -175,9 +231,16 @@ class _Evaluator:
 
     def __init__(self, base, space, scaler):
         self.base, self.space, self.scaler = base, space, scaler
+        self._components = {}  # each draw's model, built once
+
+    def _component(self, v):
+        key = v.tobytes()
+        if key not in self._components:
+            self._components[key] = self.space.component(v)
+        return self._components[key]
 
     def mixture(self, V):
-        components = [self.space.component(v) for v in V]
+        components = [self._component(v) for v in V]
         draws = HyperposteriorDraws(
             None, components, np.zeros(len(V)), None, None, None
         )
@@ -198,16 +261,48 @@ class _Evaluator:
                     continue
             return out
 
-    def log_marginal(self, V, grid):
+    def splined(self, V, L, grids):
+        """The draws' log likelihoods ``L`` on the coarse nodes carried to the
+        fine ones by a cubic spline; evaluated there for a draw with a failed
+        factorisation (no spline through ``-inf``)."""
+        V, L = np.atleast_2d(V), np.asarray(L)
+        ok = np.all(np.isfinite(L), axis=0)
+        out = np.empty((len(grids.fine.nodes), L.shape[1]))
+        if ok.any():
+            spline = interpolate.CubicSpline(grids.coarse.nodes, L[:, ok], axis=0)
+            out[:, ok] = spline(grids.fine.nodes)
+        if not ok.all():
+            out[:, ~ok] = self(V[~ok], grids.fine.nodes)
+        return out
+
+    def log_marginal(self, V, grids):
         """``log p(phi) + log ∫ p(theta) p(data | theta, phi) d theta`` (K,)."""
         V = np.atleast_2d(V)
-        L = self(V, grid.nodes) + grid.log_weights[:, None]
+        L = self.splined(V, self(V, grids.coarse.nodes), grids)
         log_prior = np.array([self.space.log_prior(v) for v in V])
         with np.errstate(invalid="ignore"):
-            return special.logsumexp(L, axis=0) + log_prior
+            return (
+                special.logsumexp(L + grids.fine.log_weights[:, None], axis=0)
+                + log_prior
+            )
 
 
-def marginal_laplace(evaluate, grid, start):
+@dataclass(frozen=True)
+class _Grids:
+    """The nodes where the likelihood is evaluated (``coarse``) and those of
+    the integral (``fine``, ``factor`` spacings per coarse one, the coarse
+    nodes among them)."""
+
+    coarse: ThetaGrid
+    fine: ThetaGrid
+    factor: int
+
+    @classmethod
+    def of(cls, prior, coarse, factor):
+        return cls(coarse, coarse.subdivided(prior, factor), factor)
+
+
+def marginal_laplace(evaluate, grids, start):
     """Mode and Laplace covariance of the marginal posterior of ``phi``.
 
     L-BFGS-B on ``-log_marginal`` with forward-difference gradients (the
@@ -218,7 +313,7 @@ def marginal_laplace(evaluate, grid, start):
     steps = _STEP * np.eye(m)
 
     def objective(v):
-        f = -evaluate.log_marginal(np.vstack([v, v + steps]), grid)
+        f = -evaluate.log_marginal(np.vstack([v, v + steps]), grids)
         if not np.isfinite(f[0]):
             return 1e300, np.zeros(m)
         g = np.where(np.isfinite(f[1:]), (f[1:] - f[0]) / _STEP, 0.0)
@@ -228,7 +323,7 @@ def marginal_laplace(evaluate, grid, start):
     v = res.x if res.fun < objective(start)[0] else np.asarray(start, float)
     pairs = v + steps[:, None, :] + steps[None, :, :]
     points = np.vstack([v, v + steps, pairs.reshape(m * m, m)])
-    f = -evaluate.log_marginal(points, grid)
+    f = -evaluate.log_marginal(points, grids)
     f0, fi, fij = f[0], f[1 : m + 1], f[m + 1 :].reshape(m, m)
     H = (fij - fi[:, None] - fi[None, :] + f0) / _STEP**2
     H = np.where(np.isfinite(H), H, 0.0)
@@ -238,26 +333,28 @@ def marginal_laplace(evaluate, grid, start):
 @dataclass(frozen=True)
 class _Draws:
     """Draws of ``phi`` so far: coordinates, log weights ``p / q``, blocks
-    and their log likelihoods on the grid."""
+    and their log likelihoods on the coarse (``L``) and fine (``F``) grids."""
 
     V: np.ndarray
     log_w: np.ndarray
     block: np.ndarray
     L: np.ndarray
+    F: np.ndarray
 
-    def add(self, V, log_w, block, L):
+    def add(self, V, log_w, block, L, F):
         return _Draws(
             np.vstack([self.V, V]),
             np.r_[self.log_w, log_w],
             np.r_[self.block, np.full(len(V), block)],
             np.hstack([self.L, L]),
+            np.hstack([self.F, F]),
         )
 
 
-def _grid_problems(A, grid, weights):
+def _grid_problems(A, grid, weights, span=1):
     """Whether the grid needs refining (a draw with weight whose conditional
-    posterior is narrower than half a spacing) or extending (mass at an end
-    that is not the prior's)."""
+    posterior is narrower than half a spacing) or extending (mass on the
+    ``span`` nodes at an end that is not the prior's)."""
     t = grid.nodes
     Z = special.logsumexp(A, axis=0)
     share = np.exp(Z - special.logsumexp(Z))
@@ -266,8 +363,8 @@ def _grid_problems(A, grid, weights):
     mu = t @ P
     sd = np.sqrt(np.maximum((t**2) @ P - mu**2, 0.0))
     narrow = float(np.sum(share[heavy][sd < 0.5 * grid.step])) > _NARROW_SHARE
-    lower = weights[0] > _END_MASS and t[0] > grid.support[0]
-    upper = weights[-1] > _END_MASS and t[-1] < grid.support[1]
+    lower = weights[:span].sum() > _END_MASS and t[0] > grid.support[0]
+    upper = weights[-span:].sum() > _END_MASS and t[-1] < grid.support[1]
     return narrow, lower, upper
 
 
@@ -299,10 +396,9 @@ class ConvergedIntegral:
 
 def _density_cdf(w, grid):
     """The CDF at the nodes of the trapezoid posterior with weights ``w``."""
-    trapezoid = np.full(len(w), grid.step)
-    trapezoid[[0, -1]] *= 0.5
-    f = w / trapezoid
-    cdf = np.concatenate([[0.0], np.cumsum(0.5 * (f[1:] + f[:-1]) * grid.step)])
+    t = grid.nodes
+    f = w / (0.5 * (np.diff(t, prepend=t[0]) + np.diff(t, append=t[-1])))
+    cdf = np.concatenate([[0.0], np.cumsum(0.5 * (f[1:] + f[:-1]) * np.diff(t))])
     return cdf / cdf[-1]
 
 
@@ -317,7 +413,7 @@ def _summaries(log_joint, grid):
     return np.r_[mean, sd, np.interp(INTERVAL, _density_cdf(w, grid), t)], w
 
 
-def _new_blocks(draws, evaluate, grid, proposal, n_blocks, seed):
+def _new_blocks(draws, evaluate, grids, proposal, n_blocks, seed):
     """``draws`` with blocks added up to ``n_blocks``."""
     space, mode, cov = proposal
     first = 0 if draws is None else int(draws.block.max()) + 1
@@ -325,26 +421,56 @@ def _new_blocks(draws, evaluate, grid, proposal, n_blocks, seed):
         V, log_p, log_q = proposal_draws(
             space.coordinates, mode, cov, N_BLOCK, seed.spawn(1)[0], PRIOR_SHARE
         )
-        L = evaluate(V, grid.nodes)
+        L = evaluate(V, grids.coarse.nodes)
+        F = evaluate.splined(V, L, grids)
         if draws is None:
-            draws = _Draws(V, log_p - log_q, np.zeros(len(V), int), L)
+            draws = _Draws(V, log_p - log_q, np.zeros(len(V), int), L, F)
         else:
-            draws = draws.add(V, log_p - log_q, b, L)
+            draws = draws.add(V, log_p - log_q, b, L, F)
     return draws
 
 
-def _regridded(draws, grid, prior, evaluate, narrow, lower, upper):
-    """The grid refined (``narrow``; the old nodes, every other new one,
-    keep their values) or extended at the flagged ends, and the draws'
-    log likelihoods on it."""
-    if narrow:
-        grid = grid.refined(prior)
-        L = np.empty((len(grid.nodes), len(draws.log_w)))
-        L[::2], L[1::2] = draws.L, evaluate(draws.V, grid.nodes[1::2])
+def _regridded(draws, grids, prior, evaluate, change):
+    """New grids and the draws' log likelihoods on them. ``change``:
+    ``"fine"`` halves the fine spacing (the spline alone); ``"coarse"``
+    halves the coarse one (the old nodes keep their values, the new ones
+    are evaluated) and keeps the fine one; ``(lower, upper)`` extends
+    both at the flagged ends (the new nodes evaluated)."""
+    coarse, factor = grids.coarse, grids.factor
+    if change == "fine":
+        grids, L = _Grids.of(prior, coarse, 2 * factor), draws.L
+    elif change == "coarse":
+        grids = _Grids.of(prior, coarse.refined(prior), max(factor // 2, 1))
+        L = np.empty((len(grids.coarse.nodes), len(draws.log_w)))
+        L[::2], L[1::2] = draws.L, evaluate(draws.V, grids.coarse.nodes[1::2])
     else:
-        grid = grid.extended(prior, lower, upper)
-        L = evaluate(draws.V, grid.nodes)
-    return grid, _Draws(draws.V, draws.log_w, draws.block, L)
+        wider, n_below, n_above = coarse.extended(prior, *change)
+        grids, J = _Grids.of(prior, wider, factor), len(coarse.nodes)
+        new = np.r_[np.arange(n_below), n_below + J + np.arange(n_above)]
+        L = np.empty((len(wider.nodes), len(draws.log_w)))
+        L[n_below : n_below + J], L[new] = draws.L, evaluate(draws.V, wider.nodes[new])
+    F = evaluate.splined(draws.V, L, grids)
+    return grids, _Draws(draws.V, draws.log_w, draws.block, L, F)
+
+
+def _spline_error(draws, grids, A, evaluate, prior):
+    """The spline's largest error at the coarse midpoints, for the
+    :data:`_N_CHECKED` draws of most weight, where their log posterior is
+    within :data:`_RELEVANT` of its largest (0 with one coarse spacing)."""
+    nodes = grids.coarse.nodes
+    Z = special.logsumexp(A, axis=0)
+    heavy = np.argsort(Z)[::-1][:_N_CHECKED]
+    heavy = heavy[np.all(np.isfinite(draws.L[:, heavy]), axis=0)]
+    if len(heavy) == 0 or len(nodes) < 2:
+        return 0.0
+    mid = 0.5 * (nodes[1:] + nodes[:-1])
+    exact = evaluate(draws.V[heavy], mid)
+    splined = interpolate.CubicSpline(nodes, draws.L[:, heavy], axis=0)(mid)
+    with np.errstate(divide="ignore"):
+        log_post = exact + np.ravel(prior.logpdf(mid[:, None]))[:, None]
+    top = np.nanmax(log_post, axis=0)
+    relevant = np.isfinite(exact) & (log_post >= top - _RELEVANT)
+    return float(np.max(np.abs(exact - splined)[relevant], initial=0.0))
 
 
 def _tolerances(tol):
@@ -380,6 +506,8 @@ def _rule_pairs(A, grid, seed):
 
 
 def _result(module2, space, draws, grid, proposal, errors, n_samples, seeds):
+    """The mixture's draws, theta's posterior on the fine ``grid`` and
+    module 4's pairs."""
     """The :class:`ConvergedIntegral` of the final draws."""
     _, _, w, A = errors
     Z = special.logsumexp(A, axis=0)
@@ -408,10 +536,12 @@ def _result(module2, space, draws, grid, proposal, errors, n_samples, seeds):
 def _block_errors(draws, grid):
     """Estimates from all the draws, the standard errors of the four
     summaries from the spread of the blocks' estimates, the pooled node
-    weights and the joint log weights (J, K)."""
-    A = draws.L + grid.log_weights[:, None] + draws.log_w[None, :]
+    weights and the joint log weights (J, K), on the fine ``grid``."""
+    A = draws.F + grid.log_weights[:, None] + draws.log_w[None, :]
     pooled, w = _summaries(A, grid)
     blocks = np.unique(draws.block)
+    if len(blocks) < 2:  # no spread yet
+        return pooled, np.full(4, np.nan), w, A
     each = np.array([_summaries(A[:, draws.block == b], grid)[0] for b in blocks])
     se = each.std(axis=0, ddof=1) / math.sqrt(len(blocks))
     return pooled, se, w, A
@@ -448,36 +578,46 @@ def converge(
     say = say or (lambda message: None)
     space = module2.coordinates
     evaluate = _Evaluator(base, space, scaler)
-    grid = ThetaGrid.around(prior, float(first.mean[0]), math.sqrt(first.cov[0, 0]))
+    grids = _Grids.of(
+        prior,
+        ThetaGrid.around(prior, float(first.mean[0]), math.sqrt(first.cov[0, 0])),
+        FINE_FACTOR,
+    )
     draw_seed, sample_seed, rule_seed = seed_sequence(random_state).spawn(3)
-    mode, cov = marginal_laplace(evaluate, grid, module2.mode_coordinates)
+    mode, cov = marginal_laplace(evaluate, grids, module2.mode_coordinates)
     proposal = (space, mode, INFLATION**2 * cov)
-    draws, n_blocks, changes = None, MIN_BLOCKS, 0
+    # One block first: the grids are set on it, before more draws need them.
+    draws, n_blocks, changes, checked = None, 1, 0, None
     while True:
-        draws = _new_blocks(draws, evaluate, grid, proposal, n_blocks, draw_seed)
-        errors = _block_errors(draws, grid)
-        narrow, lower, upper = _grid_problems(errors[3], grid, errors[2])
-        narrow = narrow and 2 * len(grid.nodes) - 1 <= _MAX_NODES
-        if (narrow or lower or upper) and changes < _GRID_CHANGES:
-            grid, draws = _regridded(draws, grid, prior, evaluate, narrow, lower, upper)
+        draws = _new_blocks(draws, evaluate, grids, proposal, n_blocks, draw_seed)
+        errors = _block_errors(draws, grids.fine)
+        change = _grid_change(errors, grids) if changes < _GRID_CHANGES else None
+        if change is None and n_blocks < MIN_BLOCKS:
+            n_blocks = MIN_BLOCKS
+            continue
+        if change is None:
+            pooled, se = errors[:2]
+            relative = float(np.max(se / _tolerances(tol)) * tol / pooled[1])
+            _say_errors(say, draws, grids, se / pooled[1], tol)
+            done = relative <= tol or n_blocks * N_BLOCK >= MAX_DRAWS
+            if done and checked is not grids.coarse:
+                checked = grids.coarse
+                spline = _spline_error(draws, grids, errors[3], evaluate, prior)
+                refinable = 2 * len(grids.coarse.nodes) - 1 <= _MAX_NODES
+                if spline > SPLINE_TOL and refinable and changes < _GRID_CHANGES:
+                    change = "coarse"
+        if change is not None:
+            grids, draws = _regridded(draws, grids, prior, evaluate, change)
             changes += 1
             continue
-        pooled, se = errors[:2]
-        relative = float(np.max(se / _tolerances(tol)) * tol / pooled[1])
-        say(
-            f"module 2: {len(draws.log_w)} draws of the hyperparameters on "
-            f"{len(grid.nodes)} nodes; Monte Carlo errors of theta's mean, sd "
-            f"and interval ends {np.array2string(se / pooled[1], precision=3)} "
-            f"posterior sds (targets {tol:g}, {tol:g}, {END_TOLERANCE * tol:g})"
-        )
-        if relative <= tol or n_blocks * N_BLOCK >= MAX_DRAWS:
+        if done:
             break
         n_blocks = _grown(n_blocks, relative, tol)
     hyper, posterior, rule = _result(
         module2,
         space,
         draws,
-        grid,
+        grids.fine,
         proposal,
         errors,
         n_samples,
@@ -486,16 +626,54 @@ def converge(
     error = MonteCarloError(
         *map(float, se), len(draws.log_w), hyper.noise_ess, relative <= tol
     )
+    _warn_unmet(error, se / pooled[1], tol, spline)
+    return ConvergedIntegral(hyper, posterior, error, *rule)
+
+
+def _grid_change(errors, grids):
+    """What the grids need before the errors can be read: extending at an
+    end that holds mass (``(lower, upper)``), a finer integration grid
+    (``"fine"``) where draws with weight have narrow conditionals, or
+    nothing (None)."""
+    narrow, lower, upper = _grid_problems(
+        errors[3], grids.fine, errors[2], grids.factor
+    )
+    if lower or upper:
+        return (lower, upper)
+    n_fine = (len(grids.coarse.nodes) - 1) * 2 * grids.factor + 1
+    return "fine" if narrow and n_fine <= MAX_FINE_NODES else None
+
+
+def _say_errors(say, draws, grids, relative, tol):
+    say(
+        f"module 2: {len(draws.log_w)} draws of the hyperparameters, "
+        f"evaluated on {len(grids.coarse.nodes)} nodes and integrated on "
+        f"{len(grids.fine.nodes)}; Monte Carlo errors of theta's mean, sd "
+        f"and interval ends {np.array2string(relative, precision=3)} "
+        f"posterior sds (targets {tol:g}, {tol:g}, {END_TOLERANCE * tol:g})"
+    )
+
+
+def _warn_unmet(error, relative, tol, spline):
+    """The warnings of a tolerance not reached: Monte Carlo, spline."""
     if not error.converged:
         warn(
             f"The integral over the discrepancy and noise hyperparameters did "
             f"not reach its Monte Carlo tolerance in {MAX_DRAWS} draws: the "
             f"errors of theta's posterior mean, sd and interval ends are "
-            f"{np.array2string(se / pooled[1], precision=3)} posterior sds "
+            f"{np.array2string(relative, precision=3)} posterior sds "
             f"(discrepancy_tol={tol:g}, twice that for the ends); see "
             "summary()'s mcse columns. "
             "Their posterior is far from the Laplace approximation the draws "
             "come from: check the discrepancy prior and the field data.",
             UserWarning,
         )
-    return ConvergedIntegral(hyper, posterior, error, *rule)
+    if spline > SPLINE_TOL:
+        warn(
+            f"The log likelihood of theta between the grid's nodes is "
+            f"interpolated with an error of {spline:.3g} (more than "
+            f"{SPLINE_TOL:g}) after {_GRID_CHANGES} refinements: the "
+            "posterior of theta is narrow against its prior range; give "
+            "theta a narrower prior around the data's estimate.",
+            UserWarning,
+        )
