@@ -5,8 +5,11 @@ import warnings
 import numpy as np
 import pytest
 from scipy import stats
+from sklearn.base import clone
 from sklearn.utils.estimator_checks import (
     check_dataframe_column_names_consistency,
+    check_estimators_pickle,
+    check_fit_idempotent,
     parametrize_with_checks,
 )
 
@@ -18,6 +21,10 @@ def scaled_sum_model(X, theta):
     return X.sum(axis=1, keepdims=True) * theta[:, :1]
 
 
+# Small and fast for the API checks: 16 draws of the discrepancy's
+# hyperparameters (the checks' random data make the default's integral to
+# its tolerance slow, up to 4096 draws); test_default_integral_api runs the
+# checks that read what that integral stores.
 SMALL_CALIBRATOR = ModularBayesCalibrator(
     scaled_sum_model,
     [stats.uniform(0.5, 2.0)],
@@ -25,6 +32,7 @@ SMALL_CALIBRATOR = ModularBayesCalibrator(
     n_samples=200,
     burn_in=100,
     n_restarts_optimizer=0,
+    discrepancy_tol=None,
     random_state=0,
 )
 
@@ -75,3 +83,15 @@ def test_dataframe_column_names_consistency(estimator):
     with np.errstate(all="ignore"), warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)  # small-design warnings
         check_dataframe_column_names_consistency(type(estimator).__name__, estimator)
+
+
+@pytest.mark.parametrize(
+    "check", [check_fit_idempotent, check_estimators_pickle], ids=lambda c: c.__name__
+)
+def test_default_integral_api(check):
+    # The checks that read every fitted attribute, on the default integral
+    # to discrepancy_tol="auto" (its draws, grid and Monte Carlo errors).
+    estimator = clone(SMALL_CALIBRATOR).set_params(discrepancy_tol="auto")
+    with np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # small-design warnings
+        check(type(estimator).__name__, estimator)

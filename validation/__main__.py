@@ -69,9 +69,10 @@ def _parser(specs):
     parser.add_argument("--out", default=None, help="directory for the results")
     parser.add_argument(
         "--discrepancy-tol",
-        type=float,
-        default=None,
-        help="the calibrator's discrepancy_tol (default: its default, None)",
+        type=discrepancy_tol_argument,
+        default="auto",
+        help="the calibrator's discrepancy_tol: a number, 'none' (16 draws) "
+        "or 'auto' (its default)",
     )
     parser.add_argument("--quiet", action="store_true", help="no progress lines")
     parser.add_argument(
@@ -81,6 +82,13 @@ def _parser(specs):
         "histograms in one figure, --out/validity_ranks.png, and stop",
     )
     return parser
+
+
+def discrepancy_tol_argument(text):
+    """``--discrepancy-tol``: ``"auto"``, None for ``"none"``, or a number."""
+    if text.lower() in ("auto", "none"):
+        return None if text.lower() == "none" else "auto"
+    return float(text)
 
 
 def _save(out, records, summary, table, footer, command):
@@ -116,7 +124,7 @@ def main(argv=None):
                   if k in seeds})  # fmt: skip
 
     options = {}
-    if args.discrepancy_tol is not None:
+    if args.discrepancy_tol != "auto":
         options["discrepancy_tol"] = args.discrepancy_tol
     print(
         "skmba validity suite: ModularBayesCalibrator with its current defaults"

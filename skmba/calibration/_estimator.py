@@ -181,13 +181,13 @@ class ModularBayesCalibrator(
         ``{"roughness": (0.1, 9.0), "variance": (1e-2, 20.0)}`` (thesis
         Table 6.2; ``"variance"`` is the diagonal of Sigma_d, its lower end
         each response's own part of the discrepancy).
-    discrepancy_tol : float, default=None
+    discrepancy_tol : "auto", float or None, default="auto"
         With "propagate" and one parameter: integrate the hyperparameters
         out until the Monte Carlo errors of theta's posterior mean and sd
         are below this many posterior sds (the 95 % ends: twice that), in
-        blocks of 128 draws, at most 4096; reported by ``summary()``. 0.05
-        makes the interval reproducible whatever ``random_state``, at a
-        cost (User Guide). None: 16 draws, moving with ``random_state``.
+        blocks of 128 draws, at most 4096; reported by ``summary()``.
+        "auto": 0.05, reproducible whatever ``random_state`` (User Guide);
+        16 draws with several parameters. None: 16 draws, moving with it.
     emulator_alpha : float, default=1e-8
         Nugget of the emulator's correlation matrix at the simulations (not
         at the field inputs, where the model is the simulator's output).
@@ -353,7 +353,7 @@ class ModularBayesCalibrator(
         discrepancy_optimizer="fmin_l_bfgs_b",
         discrepancy_uncertainty="propagate",
         discrepancy_prior=None,
-        discrepancy_tol=None,
+        discrepancy_tol="auto",
         emulator_alpha=1e-8,
         bin_width=None,
         verbose=0,

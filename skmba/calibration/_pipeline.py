@@ -39,7 +39,7 @@ from skmba._core.linalg import FEWER_FIELD_DATA, FLOAT_BYTES, check_memory, n_wo
 from skmba._core.regression import n_regression_terms
 from skmba._core.warn import warn
 from skmba.calibration._module1_emulator import Standardizer, fit_emulator
-from skmba.calibration._module2_converged import MAX_DRAWS, converge
+from skmba.calibration._module2_converged import AUTO_TOL, MAX_DRAWS, converge
 from skmba.calibration._module2_plug_in import fit_discrepancy
 from skmba.calibration._module2_posterior import (
     HyperposteriorDraws,
@@ -250,7 +250,7 @@ def run_modules(
         hyperprior = module2_spec.in_units(inputs.units)
         module2, module3 = _propagated(inputs, integrated, hyperprior, seeds)
     else:
-        if settings.discrepancy_tol is not None:
+        if settings.discrepancy_tol not in (None, "auto"):
             warn(
                 "discrepancy_tol is not applied with "
                 'discrepancy_uncertainty="plug-in": the hyperparameters are '
@@ -323,7 +323,8 @@ def _propagated(inputs, integrated, hyperprior, seeds):
             n_jobs=inputs.settings.n_jobs,
         )
 
-    converged = _tolerance_applies(inputs)
+    tol = _tolerance(inputs)
+    converged = tol is not None
 
     def second_pass(integrated, label="2nd pass"):
         return _draws(inputs, integrated, hyperprior, seeds[4], label, not converged)
@@ -342,26 +343,31 @@ def _propagated(inputs, integrated, hyperprior, seeds):
         first = inputs.warm.module3
         draws = second_pass(over_posterior(first), "update, over the last posterior")
     if converged:
-        return _converged(inputs, draws, first.posterior, seeds[5])
+        return _converged(inputs, draws, first.posterior, tol, seeds[5])
     return draws, fit_module3(inputs, draws, seeds[5], earlier=first.posterior)
 
 
-def _tolerance_applies(inputs):
-    """Whether ``discrepancy_tol`` applies (set, one parameter, quadrature);
-    a warning when it is set but cannot."""
+def _tolerance(inputs):
+    """The tolerance of the integral over the hyperparameters, or None (16
+    draws): ``discrepancy_tol``, :data:`AUTO_TOL` for ``"auto"``, where it
+    applies (one parameter, quadrature); a warning when it is set to a
+    number but cannot apply."""
     tol, sampler = inputs.settings.discrepancy_tol, _sampler(inputs)
-    if tol is not None and sampler != "quadrature":
-        warn(
-            f"discrepancy_tol={tol:g} is not applied: it needs one calibration "
-            f"parameter and its quadrature (here {inputs.prior.dim} parameter(s), "
-            f'sampler "{sampler}"); module 3 mixes 16 draws of the '
-            "hyperparameters instead, and theta_mcse_ is NaN.",
-            UserWarning,
-        )
-    return tol is not None and sampler == "quadrature"
+    if tol is None or sampler != "quadrature":
+        if tol not in (None, "auto"):
+            warn(
+                f"discrepancy_tol={tol:g} is not applied: it needs one "
+                f"calibration parameter and its quadrature (here "
+                f'{inputs.prior.dim} parameter(s), sampler "{sampler}"); '
+                "module 3 mixes 16 draws of the hyperparameters instead, and "
+                "theta_mcse_ is NaN.",
+                UserWarning,
+            )
+        return None
+    return AUTO_TOL if tol == "auto" else tol
 
 
-def _converged(inputs, module2, first, seed):
+def _converged(inputs, module2, first, tol, seed):
     """One parameter: the integral over the hyperparameters to the
     calibrator's tolerance (:func:`~skmba.calibration._module2_converged.
     converge`), module 3's posterior on its grid and module 4's pairs."""
@@ -378,7 +384,7 @@ def _converged(inputs, module2, first, seed):
         inputs.scaler,
         inputs.prior,
         first,
-        tol=settings.discrepancy_tol,
+        tol=tol,
         n_samples=settings.sampler.n_samples,
         random_state=seed,
         say=inputs.progress.info,

@@ -75,11 +75,12 @@ PARAMETER_TABLE = {
     "discrepancy_uncertainty": [Options(DISCREPANCY_UNCERTAINTIES)],
     "discrepancy_prior": "no_validation",  # module2_prior, in fit
     "discrepancy_tol": [
+        Options(("auto",)),
         Real(
             minimum=1e-4,
             hint="posterior sds, e.g. 0.05; smaller costs more draws",
             allow_none=True,
-        )
+        ),
     ],
     "emulator_alpha": [Real(minimum=0, hint="the emulator's nugget, e.g. 1e-8")],
     "bin_width": "no_validation",  # check_bin_width, in fit (one per input)
@@ -154,10 +155,10 @@ class CalibrationSettings:
     discrepancy_prior : dict or None
         As given; :func:`~skmba.calibration._fit_setup.module2_prior` checks
         it against the data.
-    discrepancy_tol : float or None
+    discrepancy_tol : "auto", float or None
         Monte Carlo tolerance of the integral over module 2's
         hyperparameters, in posterior sds of theta; None: module 2's 16
-        draws.
+        draws; "auto": 0.05 where it applies, else 16 draws.
     n_jobs : int or None
     bin_width : float, ndarray or None
         As given; :func:`~skmba.calibration._field_replicates.check_bin_width`
@@ -171,7 +172,7 @@ class CalibrationSettings:
     verbose: int
     discrepancy_uncertainty: str
     discrepancy_prior: dict | None
-    discrepancy_tol: float | None
+    discrepancy_tol: str | float | None
     n_jobs: int | None
     bin_width: object
     emulator: EmulatorSettings

@@ -1167,15 +1167,19 @@ def test_a_numpy_generator_seeds_the_fit_reproducibly():
 
 def test_module2_treatments():
     # "propagate" (default) integrates the module-2 hyperparameters out over
-    # draws; "plug-in" is the thesis' MBA: one global model, a mixture of
-    # one draw of weight one, whose likelihood is its global model's.
+    # draws (one parameter: blocks of 128 to discrepancy_tol="auto"); "plug-in"
+    # is the thesis' MBA: one global model, a mixture of one draw of weight
+    # one, whose likelihood is its global model's.
+    from skmba.calibration._module2_converged import N_BLOCK
     from skmba.calibration._module3_mixture import ModelMixture
 
     data = make_cantilever(30, 10, random_state=0)
     default = fit(data, n_restarts_optimizer=0)
     plug_in = fit(data, n_restarts_optimizer=0, discrepancy_uncertainty="plug-in")
     assert isinstance(default.global_model_, ModelMixture)
-    assert len(default.global_model_.models) == 16
+    n_draws = len(default.global_model_.models)
+    assert n_draws == default.discrepancy_draws_ and n_draws % N_BLOCK == 0
+    assert np.all(np.isfinite(default.theta_mcse_))
     assert isinstance(plug_in.global_model_, ModelMixture)
     assert len(plug_in.global_model_.models) == 1
     t_std = (np.array([65e3]) - plug_in.theta_offset_) / plug_in.theta_scale_

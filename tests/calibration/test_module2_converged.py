@@ -9,7 +9,7 @@ from scipy import special, stats
 
 import skmba.calibration._module2_converged as converged
 from skmba import ModularBayesCalibrator
-from skmba.calibration._module2_converged import ThetaGrid
+from skmba.calibration._module2_converged import AUTO_TOL, ThetaGrid
 from skmba.priors._theta import check_prior
 from validation.cases import case_freq
 
@@ -166,7 +166,7 @@ def test_grid_stops_at_the_prior_and_keeps_its_nodes():
     assert np.all(np.diff(grid.nodes) <= grid.step * (1 + 1e-12))
     assert np.all(np.diff(grid.nodes) >= 0.25 * grid.step)
     assert np.all(np.isfinite(grid.log_weights))
-    wider, below, above = grid.extended(prior, False, True)
+    wider, below, _ = grid.extended(prior, False, True)
     assert below == 0 and wider.nodes[-1] <= hi
     np.testing.assert_array_equal(wider.nodes[: len(grid.nodes)], grid.nodes)
     # The trapezoid of the uneven grid integrates the prior's density.
@@ -187,19 +187,23 @@ def test_warns_when_the_tolerance_is_not_reached(case, monkeypatch):
     assert np.all(np.isfinite(cal.theta_mcse_))
 
 
-def test_default_reports_no_error(case):
-    cal = ModularBayesCalibrator(prior=case.prior, random_state=0)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", UserWarning)
-        cal.fit(
-            case.X, case.y, X_sim=case.X_sim, theta_sim=case.theta_sim, y_sim=case.y_sim
-        )
+def test_default_integrates_to_its_tolerance_and_none_to_16_draws(case):
+    # "auto" (the default) is discrepancy_tol=0.05 with one parameter; None
+    # keeps module 2's 16 draws and reports no error.
+    auto = _fit(case, 0, tol="auto")
+    sd = np.sqrt(auto.theta_cov_[0, 0])
+    relative = auto.theta_mcse_[:, 0] / sd
+    assert np.all(relative[:2] <= AUTO_TOL) and np.all(relative[2:] <= 2 * AUTO_TOL)
+    assert auto.discrepancy_draws_ >= 512
+    explicit = _fit(case, 0, tol=AUTO_TOL)
+    np.testing.assert_array_equal(auto.theta_samples_, explicit.theta_samples_)
+    cal = _fit(case, 0, tol=None)
     assert np.all(np.isnan(cal.theta_mcse_)) and cal.discrepancy_draws_ == 16
     table = cal.summary()
     assert np.isnan(table["mcse_sd"].iloc[0])
 
 
-@pytest.mark.parametrize("tol", [0.0, -0.1, "0.05", np.inf])
+@pytest.mark.parametrize("tol", [0.0, -0.1, "0.05", "Auto", np.inf])
 def test_discrepancy_tol_is_checked(case, tol):
     cal = ModularBayesCalibrator(prior=case.prior, discrepancy_tol=tol)
     with pytest.raises((ValueError, TypeError), match="discrepancy_tol"):

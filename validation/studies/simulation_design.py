@@ -34,6 +34,7 @@ from joblib import Parallel, delayed
 
 from skmba import ModularBayesCalibrator
 from skmba.datasets import make_cantilever
+from validation.__main__ import discrepancy_tol_argument
 from validation.cases import CANTILEVER_SIZES, case_a1
 
 
@@ -66,7 +67,12 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--ranges", default="10,20,40", help="F_max values, kN")
     parser.add_argument("--refits", type=int, default=5)
-    parser.add_argument("--discrepancy-tol", type=float, default=None)
+    parser.add_argument(
+        "--discrepancy-tol",
+        type=discrepancy_tol_argument,
+        default="auto",
+        help="a number, 'none' (16 draws) or 'auto' (the default)",
+    )
     parser.add_argument("--n-jobs", type=int, default=1)
     args = parser.parse_args(argv)
     ranges = [float(v) for v in args.ranges.split(",")]
