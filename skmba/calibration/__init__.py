@@ -34,6 +34,8 @@ file                               holds
                                    (``discrepancy_uncertainty="propagate"``)
 ``_module2_converged.py``          the hyperparameters integrated out to a
                                    stated error (``discrepancy_tol``)
+``_module2_theta_grid.py``         theta's grids for it: the likelihood
+                                   evaluated coarsely, splined finely
 ``_module3_likelihood.py``         module 3: the global model (Eq. 4.30),
                                    also for a stack of thetas at once
 ``_module3_mixture.py``            module 3 over module 2's draws

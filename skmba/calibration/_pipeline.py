@@ -39,7 +39,12 @@ from skmba._core.linalg import FEWER_FIELD_DATA, FLOAT_BYTES, check_memory, n_wo
 from skmba._core.regression import n_regression_terms
 from skmba._core.warn import warn
 from skmba.calibration._module1_emulator import Standardizer, fit_emulator
-from skmba.calibration._module2_converged import AUTO_TOL, MAX_DRAWS, converge
+from skmba.calibration._module2_converged import (
+    AUTO_MAX_ENTRIES,
+    AUTO_TOL,
+    MAX_DRAWS,
+    converge,
+)
 from skmba.calibration._module2_plug_in import fit_discrepancy
 from skmba.calibration._module2_posterior import (
     HyperposteriorDraws,
@@ -350,7 +355,8 @@ def _propagated(inputs, integrated, hyperprior, seeds):
 def _tolerance(inputs):
     """The tolerance of the integral over the hyperparameters, or None (16
     draws): ``discrepancy_tol``, :data:`AUTO_TOL` for ``"auto"``, where it
-    applies (one parameter, quadrature); a warning when it is set to a
+    applies (one parameter, quadrature; for ``"auto"`` also at most
+    :data:`AUTO_MAX_ENTRIES` field entries); a warning when it is set to a
     number but cannot apply."""
     tol, sampler = inputs.settings.discrepancy_tol, _sampler(inputs)
     if tol is None or sampler != "quadrature":
@@ -364,7 +370,17 @@ def _tolerance(inputs):
                 UserWarning,
             )
         return None
-    return AUTO_TOL if tol == "auto" else tol
+    if tol != "auto":
+        return tol
+    entries = int(np.sum(np.isfinite(inputs.Ys)))
+    if entries > AUTO_MAX_ENTRIES:
+        inputs.progress.info(
+            f'module 2: discrepancy_tol="auto" mixes 16 draws for {entries} '
+            f"field entries (the integral to a tolerance is applied up to "
+            f"{AUTO_MAX_ENTRIES}; set discrepancy_tol to ask for it)"
+        )
+        return None
+    return AUTO_TOL
 
 
 def _converged(inputs, module2, first, tol, seed):

@@ -9,7 +9,8 @@ from scipy import special, stats
 
 import skmba.calibration._module2_converged as converged
 from skmba import ModularBayesCalibrator
-from skmba.calibration._module2_converged import AUTO_TOL, ThetaGrid
+from skmba.calibration._module2_converged import AUTO_TOL
+from skmba.calibration._module2_theta_grid import ThetaGrid
 from skmba.priors._theta import check_prior
 from validation.cases import case_freq
 
@@ -139,7 +140,7 @@ def test_predictive_noise_comes_from_the_same_weights(fits):
 
 def test_trapezoid_grid_integrates_a_gaussian():
     prior = check_prior([stats.uniform(-50, 100)])
-    grid = ThetaGrid.around(prior, 0.3, 1.0)
+    grid = ThetaGrid.around(prior, 0.3, 1.0, 7.0, converged.GRID_STEP)
     assert grid.step == pytest.approx(converged.GRID_STEP)
     trapezoid = np.exp(grid.log_weights) * 100.0  # over the prior density
     gauss = stats.norm(0.3, 1.0).pdf(grid.nodes)
@@ -161,7 +162,7 @@ def test_grid_stops_at_the_prior_and_keeps_its_nodes():
     # spacing; extending there keeps the old nodes and adds the bound.
     prior = check_prior([stats.uniform(0.0, 1.0)])
     lo, hi = prior.bounds(0.9999)[0]
-    grid = ThetaGrid.around(prior, 0.05, 0.1)
+    grid = ThetaGrid.around(prior, 0.05, 0.1, 7.0, 0.8)
     assert grid.nodes[0] == lo and grid.nodes[-1] < hi
     assert np.all(np.diff(grid.nodes) <= grid.step * (1 + 1e-12))
     assert np.all(np.diff(grid.nodes) >= 0.25 * grid.step)
@@ -170,7 +171,7 @@ def test_grid_stops_at_the_prior_and_keeps_its_nodes():
     assert below == 0 and wider.nodes[-1] <= hi
     np.testing.assert_array_equal(wider.nodes[: len(grid.nodes)], grid.nodes)
     # The trapezoid of the uneven grid integrates the prior's density.
-    whole = ThetaGrid.around(prior, 0.5, 0.3)
+    whole = ThetaGrid.around(prior, 0.5, 0.3, 7.0, 0.8)
     assert whole.nodes[0] == lo and whole.nodes[-1] == hi
     assert np.exp(whole.log_weights).sum() == pytest.approx(hi - lo, rel=1e-12)
 
@@ -265,3 +266,32 @@ def test_tolerance_not_applied_is_said(case):
             case.X, case.y, X_sim=case.X_sim, theta_sim=case.theta_sim, y_sim=case.y_sim
         )
     assert np.all(np.isnan(cal.theta_mcse_)) and cal.discrepancy_draws_ == 16
+
+
+@pytest.mark.parametrize(
+    ("tol", "entries", "expected"),
+    [("auto", 200, AUTO_TOL), ("auto", 201, None), (0.02, 201, 0.02), (None, 50, None)],
+)
+def test_auto_keeps_16_draws_above_its_field_entries(tol, entries, expected):
+    # "auto" stops at AUTO_MAX_ENTRIES measured field entries (each draw
+    # costs factorisations of that order); a number asks for the integral
+    # whatever the size.
+    from types import SimpleNamespace
+
+    from skmba.calibration import _pipeline
+    from skmba.calibration._module2_converged import AUTO_MAX_ENTRIES
+
+    assert AUTO_MAX_ENTRIES == 200
+    Ys = np.zeros((entries + 1, 1))
+    Ys[0] = np.nan  # a gap is not an entry
+    said = []
+    inputs = SimpleNamespace(
+        settings=SimpleNamespace(
+            discrepancy_tol=tol, sampler=SimpleNamespace(sampler="auto")
+        ),
+        prior=SimpleNamespace(dim=1),
+        Ys=Ys,
+        progress=SimpleNamespace(info=said.append),
+    )
+    assert _pipeline._tolerance(inputs) == expected
+    assert bool(said) == (tol == "auto" and expected is None)
