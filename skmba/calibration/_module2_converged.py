@@ -385,7 +385,8 @@ def converge(
             pooled, se = errors[:2]
             relative = float(np.max(se / _tolerances(tol)) * tol / pooled[1])
             _say_errors(say, draws, grids, se / pooled[1], tol)
-            if not adapted and _kish_share(errors[3]) < ADAPT_SHARE:
+            first_round = not adapted and n_blocks == MIN_BLOCKS
+            if first_round and _kish_share(errors[3]) < ADAPT_SHARE:
                 proposal, adapted = _adapted(proposal, draws, errors[3]), True
                 say("module 2: the proposal refitted to the first draws' weights")
                 draws, n_blocks, checked = None, 1, None
@@ -435,14 +436,23 @@ def _kish_share(A):
 
 
 def _adapted(proposal, draws, A):
-    """The proposal moved to the draws' weighted mean and covariance (times
-    :data:`INFLATION` squared), the same defensive mixture."""
-    space, _, _ = proposal
+    """The proposal moved toward the draws' weighted mean and covariance,
+    each weighed against the old one by the draws' Kish effective size
+    against ``2 (m + 1)`` (a few effective draws barely move it), the same
+    inflation and defensive mixture."""
+    space, mode, inflated = proposal
     W = _marginal_weights(A)
+    ess, prior_size = 1.0 / np.sum(W**2), 2.0 * (len(mode) + 1)
+    share = ess / (ess + prior_size)
     mean = W @ draws.V
     centred = draws.V - mean
-    cov = (centred * W[:, None]).T @ centred / (1.0 - np.sum(W**2))
-    return (space, mean, INFLATION**2 * cov)
+    cov = (centred * W[:, None]).T @ centred / max(1.0 - np.sum(W**2), 1e-12)
+    old = inflated / INFLATION**2
+    new_mode = share * mean + (1.0 - share) * np.asarray(mode)
+    new_cov = share * cov + (1.0 - share) * old
+    if not (np.all(np.isfinite(new_mode)) and np.all(np.isfinite(new_cov))):
+        return proposal
+    return (space, new_mode, INFLATION**2 * new_cov)
 
 
 def _grid_change(errors, grids):

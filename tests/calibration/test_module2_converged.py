@@ -295,3 +295,24 @@ def test_auto_keeps_16_draws_above_its_field_entries(tol, entries, expected):
     )
     assert _pipeline._tolerance(inputs) == expected
     assert bool(said) == (tol == "auto" and expected is None)
+
+
+def test_adapted_proposal_stays_proper_when_one_draw_has_all_the_weight():
+    # A first round whose weight sits on one draw (Kish size 1) moves the
+    # proposal by 1 / (1 + 2 (m + 1)) of the way: its covariance stays the
+    # old one's, shrunk by as much, never singular.
+    from types import SimpleNamespace
+
+    m = 3
+    rng = np.random.default_rng(0)
+    V = rng.normal(size=(512, m))
+    A = np.full((5, 512), -np.inf)
+    A[:, 7] = 0.0  # one draw carries the posterior
+    old_cov = converged.INFLATION**2 * np.eye(m)
+    space, mode, cov = converged._adapted(
+        ("space", np.zeros(m), old_cov), SimpleNamespace(V=V), A
+    )
+    share = 1.0 / (1.0 + 2 * (m + 1))
+    np.testing.assert_allclose(mode, share * V[7])
+    np.testing.assert_allclose(cov, (1 - share) * old_cov, rtol=1e-6)
+    assert space == "space" and np.all(np.linalg.eigvalsh(cov) > 0)
