@@ -485,10 +485,13 @@ def _warn_unmet(error, relative, tol, spline):
             f"not reach its Monte Carlo tolerance in {MAX_DRAWS} draws: the "
             f"errors of theta's posterior mean, sd and interval ends are "
             f"{np.array2string(relative, precision=3)} posterior sds "
-            f"(discrepancy_tol={tol:g}, twice that for the ends); see "
-            "summary()'s mcse columns. "
-            "Their posterior is far from the Laplace approximation the draws "
-            "come from: check the discrepancy prior and the field data.",
+            f"(discrepancy_tol={tol:g}, twice that for the ends); "
+            "summary()'s mcse columns give them. Where a discrepancy can "
+            "mimic theta (identifiability_ low), each draw of the "
+            "hyperparameters has its own narrow posterior of theta at its "
+            "own place, and the interval's ends rest on the few that reach "
+            "them; elsewhere, the draws' proposal missed their posterior "
+            "(check the discrepancy prior and the field data).",
             UserWarning,
         )
     if spline > SPLINE_TOL:
