@@ -64,10 +64,10 @@ print(f"identifiability_:    {cal.identifiability_[0]:.2g}")
 
 # %%
 # The posterior mean of E is 3.1 % below E*, with a posterior standard
-# deviation of 114 MPa, and E* lies far outside the 95 % credible interval.
+# deviation of 91 MPa, and E* lies far outside the 95 % credible interval.
 # ``fit`` said so beforehand: it raised a
 # :class:`~skmba.exceptions.NonIdentifiabilityWarning` for E
-# (``identifiability_`` 0.15, below the threshold of 1/3). The thesis
+# (``identifiability_`` 0.19, below the threshold of 1/3). The thesis
 # reports 70302 ± 6915 MPa.
 #
 # The posterior sits on the effective modulus printed below, for a physical
@@ -82,12 +82,12 @@ print(f"identifiability_:    {cal.identifiability_[0]:.2g}")
 # What the calibrator can and does do is say so. ``identifiability_`` is the
 # share of E's posterior spread that the data account for: the spread E would
 # have if the model had no error, over the posterior's. Here the data account
-# for 15 %: a discrepancy shaped like a change of E on these two responses
+# for 19 %: a discrepancy shaped like a change of E on these two responses
 # mimics it, so the interval rests on the prior of the discrepancy rather than
 # on the data, and it can miss E* whenever the model error is of this kind
 # (see :ref:`module-2-uncertainty`). No default can make it right: the thesis'
 # plug-in with the Table 6.2 floor on the discrepancy variance
-# (``discrepancy_uncertainty="plug-in"``) gives 68242 ± 2298 MPa on these
+# (``discrepancy_uncertainty="plug-in"``) gives 67989 ± 2133 MPa on these
 # data, an interval that covers E* only because of the floor, which makes the
 # intervals 2-3 times too wide where E is identifiable. What identifies E is
 # another response that the spring affects differently (the tip rotation, a
@@ -108,7 +108,7 @@ print("discrepancy variance / simulated variance:", variance.round(4))
 # the truth. The posterior spans well under 5 % of the prior's range, so
 # ``limits="auto"`` zooms in on it, out to the truth. We add the effective
 # modulus as a reference line: the posterior centres on it, and E* lies some
-# 19 posterior standard deviations above.
+# 24 posterior standard deviations above.
 
 fig = plot_posterior(cal, true_value=data.theta_true, names=["E"], units=["MPa"])
 ax = fig.axes[0]

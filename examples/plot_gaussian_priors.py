@@ -51,13 +51,13 @@ print(
 
 # %%
 # The data override the prior: the prior put the truth two standard
-# deviations away, and the posterior mean is 67837 MPa, the effective
+# deviations away, and the posterior mean is 67840 MPa, the effective
 # modulus (67862 MPa) of the single-parameter example. The spring at the
 # support is confounded with E there and here (``fit`` raises a
 # :class:`~skmba.exceptions.NonIdentifiabilityWarning`), so the data fix the
 # effective modulus and E* lies outside the 95 % interval: with these two
 # responses only a prior that already knew E could place it. The posterior
-# standard deviation, about 125 MPa, is some 80 times smaller than the
+# standard deviation, about 83 MPa, is some 120 times smaller than the
 # prior's 10 GPa, so we draw the posterior twice: over the prior's range,
 # where its peak is cut off to keep the prior visible, and zoomed.
 
@@ -129,18 +129,19 @@ print("posterior covariance:\n", np.array2string(cal2.theta_cov_, precision=3))
 # passes through high prior density. Both prior means are too low, and E
 # has the larger relative prior spread (19 % against 14 % for I), so E
 # moves further from its prior mean than I does (by 40 % against 31 %): E
-# ends 6 % above its truth and I 8.5 % below, both truths inside their 95 %
+# ends 6 % above its truth and I 8.6 % below, both truths inside their 95 %
 # intervals.
 #
 # EI itself is where the uniform priors of the two-parameter example put
 # it: at the effective stiffness of the spring-supported beam (mean
-# 4.574e13 N·mm², 3.2 % below E* I*, which lies outside its 95 % interval),
-# with a posterior CV of about 0.9 %. The prior, whose means give an EI of
+# 4.572e13 N·mm², 3.2 % below E* I*, which lies outside its 95 % interval),
+# with a posterior CV of about 1.3 %. The prior, whose means give an EI of
 # 2.5e13 N·mm², about half the truth, has no pull left on it: the data fix
 # the effective stiffness, and ``fit`` warns that the spring cannot be told
-# from a softer beam. The correlation of E and I, -0.985, is as strong as
-# under uniform priors, while the Gaussian priors shorten the ridge
-# (posterior CVs of E and I of 5.7 % and 5.5 %, against 20 % and 17 %).
+# from a softer beam. The correlation of E and I, -0.969, is nearly as
+# strong as under uniform priors (-0.985), while the Gaussian priors shorten
+# the ridge (posterior CVs of E and I of 5.7 % and 5.6 %, against 21 % and
+# 18 %).
 
 fig = plot_posterior(
     cal2,

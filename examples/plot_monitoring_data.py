@@ -152,7 +152,7 @@ print(f"{np.sum(np.abs(z) <= 1.96)} of {gap.sum()} missing readings in the 95 % 
 # The data are handled; the answer still has to be read with the
 # calibrator's diagnosis. The fit raised a
 # :class:`~skmba.exceptions.NonIdentifiabilityWarning` and
-# ``identifiability_`` is about 0.15 (the data account for 15 % of k's
+# ``identifiability_`` is about 0.14 (the data account for 14 % of k's
 # posterior spread): on these five gauges the bridge's top-to-bottom
 # temperature gradient (the model discrepancy) changes the strains much as
 # a softer spring does, so a discrepancy of that shape can mimic any change

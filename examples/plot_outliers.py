@@ -54,7 +54,7 @@ summary(cal, "with the outliers")
 # The noise variances are far too large, about seven times on the
 # displacement and some 23 million times on the energy, whose true noise is
 # tiny: the Gaussian noise model has absorbed the outliers. The posterior
-# of E is accordingly wide (standard deviation 12.8 GPa), though it still
+# of E is accordingly wide (standard deviation 13.1 GPa), though it still
 # contains E*.
 #
 # Which measurements fall outside the 95 % predictive interval?
@@ -74,7 +74,7 @@ for i in flagged:
     print(f"  #{i}: F = {data.X_obs[i, 0]:5.0f} N, standardised residuals {z.round(1)}")
 
 # %%
-# Both outliers are flagged, on both responses, 3.7 to 4.0 predictive
+# Both outliers are flagged, on both responses, 3.6 to 4.1 predictive
 # standard deviations away from the mean, even though the inflated noise
 # widens the interval. With 80 readings and a 95 % interval, a few regular
 # readings would also be flagged by chance; none is here.
@@ -127,20 +127,20 @@ summary(clean, "without them")
 
 # %%
 # Without the outliers, the displacement's noise variance is back to the
-# right order of magnitude (1.5 times the true one). The energy's, 24.1
-# against a true 0.57, stops at the lower end of the default noise prior,
+# right order of magnitude (1.5 times the true one). The energy's, 27.0
+# against a true 0.57, stays near the lower end of the default noise prior,
 # 1e-6 of the energy's variance over the simulations (22.7 N²·mm²): this
 # energy is measured at 71.6 dB, more precisely than that prior allows
 # (``discrepancy_prior={"noise": (1e-10, 1.0)}`` lowers the bound; the
-# estimates are then 0.14 and 0.40, and E = 67896 ± 83 MPa).
+# estimates are then 0.14 and 0.40, and E = 67889 ± 167 MPa).
 #
-# The posterior standard deviation of E shrinks from 12.9 GPa to 181 MPa,
+# The posterior standard deviation of E shrinks from 13.1 GPa to 234 MPa,
 # and E* now lies outside the 95 % interval. The nearly noise-free energy
 # dominates and, as in the noise-free single-parameter example, the spring
-# is confounded with E: the mean (67908 MPa) sits at the effective modulus
+# is confounded with E: the mean (67884 MPa) sits at the effective modulus
 # of the spring-supported beam, about 3 % below E*. ``fit`` says so with a
 # :class:`~skmba.exceptions.NonIdentifiabilityWarning` once the outliers are
-# gone (``identifiability_`` 0.09: the data account for a tenth of the
+# gone (``identifiability_`` 0.07: the data account for 7 % of the
 # posterior's width). With them it does not (0.37): the noise the outliers
 # inflate, not the discrepancy, sets that wide interval. Cleaning the data
 # sharpens the posterior around the effective modulus; it cannot tell the

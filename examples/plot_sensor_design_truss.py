@@ -310,11 +310,11 @@ for names in (["SB"], ["SI"], gauges):
 
 # %%
 # The default widens the intervals where the data leave room for a
-# discrepancy: ``SB`` alone gives [304, 802] N/mm, which holds k* = 552.3
-# N/mm, with the data accounting for 35 % of its width (just above the
-# threshold: no warning); ``SI`` alone gives [323, 517] N/mm and all five
-# gauges [308, 393] N/mm, which miss it, and both warn (``identifiability_``
-# 0.06 and 0.10). No prior on the size of a discrepancy can make these
+# discrepancy: ``SB`` alone gives [303, 777] N/mm, which holds k* = 552.3
+# N/mm, with the data accounting for 36 % of its width (just above the
+# threshold: no warning); ``SI`` alone gives [330, 505] N/mm and all five
+# gauges [311, 397] N/mm, which miss it, and both warn (``identifiability_``
+# 0.07 and 0.11). No prior on the size of a discrepancy can make these
 # intervals right; the warning is what tells the engineer that they rest on
 # the discrepancy prior, and that k needs other information: a gauge that a
 # temperature gradient cannot mimic, a measured gradient, or prior
