@@ -108,7 +108,8 @@ END_TOLERANCE = 2.0
 #: Most nodes a refinement may make (each node costs a factorisation per
 #: draw).
 _MAX_NODES = 600
-#: Most refinements or extensions of the grid.
+#: Most refinements of the evaluation grid or extensions of both (the
+#: integration grid's own refinements are bounded by MAX_FINE_NODES).
 _GRID_CHANGES = 8
 
 
@@ -392,15 +393,19 @@ def converge(
                 draws, n_blocks, checked = None, 1, None
                 continue
             done = relative <= tol or n_blocks * N_BLOCK >= MAX_DRAWS
-            if done and checked is not grids.coarse:
-                checked = grids.coarse
+            # The spline is checked on the first round (before the errors
+            # it smooths steer the draws) and on the draws returned.
+            now = (grids.coarse, len(draws.log_w))
+            fresh = checked is None or checked[0] is not now[0] or checked[1] != now[1]
+            if (done or n_blocks == MIN_BLOCKS) and fresh:
+                checked = now
                 spline = spline_error(draws, grids, errors[3], evaluate, prior)
                 refinable = 2 * len(grids.coarse.nodes) - 1 <= _MAX_NODES
                 if spline > SPLINE_TOL and refinable and changes < _GRID_CHANGES:
                     change = "coarse"
         if change is not None:
             grids, draws = _regridded(draws, grids, prior, evaluate, change)
-            changes += 1
+            changes += change != "fine"  # the spline's refinements cost nothing
             continue
         if done:
             break

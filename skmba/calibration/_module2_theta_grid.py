@@ -31,6 +31,10 @@ from skmba.calibration._module3_mixture import ModelMixture
 #: within :data:`_RELEVANT` of its draw's largest log posterior, above which
 #: the coarse grid is refined (1 % of the density there).
 SPLINE_TOL = 0.01
+#: Largest range of a draw's log likelihood over the coarse nodes that is
+#: splined (wider ranges, where the spline's slopes could overflow, are
+#: evaluated at every fine node; their weight sits at one node anyway).
+_SPLINE_SPAN = 1e100
 #: Log posterior below a draw's largest where its spline is not checked.
 _RELEVANT = 25.0
 #: Draws checked against the spline: those carrying the most weight.
@@ -157,11 +161,12 @@ class GridEvaluator:
         return ModelMixture(self.base, draws)
 
     def __call__(self, V, nodes):
-        """(J, K): ``-inf`` where a factorisation fails."""
+        """(J, K): ``-inf`` where a factorisation fails or gives no number
+        (a NaN: no weight, rather than a NaN posterior)."""
         mixture = self.mixture(np.atleast_2d(V))
         thetas = self.scaler.theta(np.asarray(nodes, float)[:, None])
         try:
-            return mixture.batch_component_log_likelihoods(thetas)
+            out = mixture.batch_component_log_likelihoods(thetas)
         except FactorizationError:  # a rank-deficient regression somewhere
             out = np.full((len(thetas), len(mixture.models)), -np.inf)
             for j, theta in enumerate(thetas):
@@ -169,18 +174,22 @@ class GridEvaluator:
                     out[j] = mixture.batch_component_log_likelihoods(theta[None])[0]
                 except FactorizationError:
                     continue
-            return out
+        return np.where(np.isnan(out), -np.inf, out)
 
     def splined(self, V, L, grids):
         """The draws' log likelihoods ``L`` on the coarse nodes carried to the
         fine ones by a cubic spline; evaluated there for a draw with a failed
-        factorisation (no spline through ``-inf``)."""
+        factorisation (no spline through ``-inf``) or whose spline overflows."""
         V, L = np.atleast_2d(V), np.asarray(L)
-        ok = np.all(np.isfinite(L), axis=0)
+        with np.errstate(over="ignore", invalid="ignore"):
+            span = np.ptp(L, axis=0)
+        ok = np.all(np.isfinite(L), axis=0) & (span < _SPLINE_SPAN)
         out = np.empty((len(grids.fine.nodes), L.shape[1]))
         if ok.any():
             spline = interpolate.CubicSpline(grids.coarse.nodes, L[:, ok], axis=0)
-            out[:, ok] = spline(grids.fine.nodes)
+            with np.errstate(over="ignore", invalid="ignore"):
+                out[:, ok] = spline(grids.fine.nodes)
+            ok[ok] = np.all(np.isfinite(out[:, ok]), axis=0)
         if not ok.all():
             out[:, ~ok] = self(V[~ok], grids.fine.nodes)
         return out

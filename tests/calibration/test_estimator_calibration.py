@@ -822,8 +822,13 @@ def test_constant_field_data():
     assert cal.theta_mean_[0] == pytest.approx(60e3, rel=1e-6)
     # A response observed as constant is no error either, but a stuck gauge
     # is named (and nothing else fires).
+    # (16 draws of module 2: with a response stuck at 0.5 the integral to
+    # discrepancy_tol="auto" stops at 4096 draws short of its tolerance, in
+    # 6 of 6 seeds measured, and says so too.)
     y_constant = np.column_stack([BAD.y_obs[:, 0], np.full(10, 0.5)])
-    cal = ModularBayesCalibrator(prior=BAD.prior, n_restarts_optimizer=0)
+    cal = ModularBayesCalibrator(
+        prior=BAD.prior, n_restarts_optimizer=0, discrepancy_tol=None, random_state=0
+    )
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         warnings.simplefilter("ignore", ConvergenceWarning)

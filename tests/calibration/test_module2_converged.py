@@ -316,3 +316,36 @@ def test_adapted_proposal_stays_proper_when_one_draw_has_all_the_weight():
     np.testing.assert_allclose(mode, share * V[7])
     np.testing.assert_allclose(cov, (1 - share) * old_cov, rtol=1e-6)
     assert space == "space" and np.all(np.linalg.eigvalsh(cov) > 0)
+
+
+def test_a_likelihood_that_is_no_number_carries_no_weight():
+    # A NaN from a factorisation becomes -inf (no weight), never a NaN
+    # posterior; a spline that overflows is replaced by exact values.
+    from types import SimpleNamespace
+
+    from skmba.calibration._module2_theta_grid import GridEvaluator, ThetaGrids
+
+    class Stub(GridEvaluator):
+        def mixture(self, V):
+            values = np.zeros((1, len(V)))
+            values[0, 0] = np.nan
+            return SimpleNamespace(
+                batch_component_log_likelihoods=lambda thetas: np.repeat(
+                    values, len(thetas), axis=0
+                ),
+                models=list(V),
+            )
+
+    scaler = SimpleNamespace(theta=lambda t: t)
+    evaluate = Stub(None, None, scaler)
+    out = evaluate(np.zeros((3, 2)), np.linspace(0.0, 1.0, 4))
+    assert np.all(out[:, 0] == -np.inf) and np.all(out[:, 1:] == 0.0)
+    prior = check_prior([stats.uniform(0.0, 1.0)])
+    grids = ThetaGrids.of(prior, ThetaGrid.around(prior, 0.5, 0.1, 2.0, 1.0), 2)
+    L = np.zeros((len(grids.coarse.nodes), 2))
+    L[:, 1] = [-1e308 * (-1) ** j for j in range(len(L))]  # overflows the spline
+    fine = evaluate.splined(np.zeros((2, 2)), L, grids)
+    np.testing.assert_array_equal(fine[:, 0], 0.0)
+    # The stub's exact value (its first draw's NaN, as -inf), not a spline
+    # through +-1e308.
+    assert np.all(fine[:, 1] == -np.inf)
