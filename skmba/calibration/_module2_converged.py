@@ -286,14 +286,12 @@ def _rule_pairs(A, grid, seed):
     return grid.nodes[j][:, None], k, counts / counts.sum()
 
 
-def _result(module2, space, draws, grid, proposal, errors, n_samples, seeds):
+def _result(module2, evaluate, draws, grid, proposal, errors, n_samples, seeds):
     """The mixture's draws, theta's posterior on the fine ``grid`` and
     module 4's pairs."""
-    """The :class:`ConvergedIntegral` of the final draws."""
     _, _, w, A = errors
-    Z = special.logsumexp(A, axis=0)
-    marginal = np.exp(Z - special.logsumexp(Z))
-    components = [space.component(v) for v in draws.V]
+    marginal = _marginal_weights(A)
+    components = evaluate.components(draws.V)  # built while evaluating
     noise = marginal @ np.array([c.noise for c in components])
     hyper = HyperposteriorDraws(
         module2.mode,
@@ -304,7 +302,7 @@ def _result(module2, space, draws, grid, proposal, errors, n_samples, seeds):
         float(1.0 / np.sum(marginal**2)),
         draws.V,
         proposal[1],
-        space,
+        evaluate.space,
     )
     samples = _sample(grid, w, n_samples, seeds[0])
     posterior = PosteriorResult.from_rule(
@@ -412,7 +410,7 @@ def converge(
         n_blocks = _grown(n_blocks, relative, tol)
     hyper, posterior, rule = _result(
         module2,
-        space,
+        evaluate,
         draws,
         grids.fine,
         proposal,

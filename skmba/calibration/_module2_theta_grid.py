@@ -147,14 +147,18 @@ class GridEvaluator:
         self.base, self.space, self.scaler = base, space, scaler
         self._components = {}  # each draw's model, built once
 
-    def _component(self, v):
-        key = v.tobytes()
-        if key not in self._components:
-            self._components[key] = self.space.component(v)
-        return self._components[key]
+    def components(self, V):
+        """The global models of the draws ``V``, each built once."""
+        out = []
+        for v in V:
+            key = v.tobytes()
+            if key not in self._components:
+                self._components[key] = self.space.component(v)
+            out.append(self._components[key])
+        return out
 
     def mixture(self, V):
-        components = [self._component(v) for v in V]
+        components = self.components(V)
         draws = HyperposteriorDraws(
             None, components, np.zeros(len(V)), None, None, None
         )
