@@ -89,7 +89,7 @@ class ModelMixture:
     def batch_component_log_likelihoods(self, thetas):
         """``log w_k + log p(data | theta_b, phi_k)`` (B, K) at the rows of
         ``thetas`` (B, r): ``-inf`` where draw ``k``'s Schur complement is
-        not positive definite.
+        not positive definite or the regression rank deficient with it.
 
         The emulator given the simulations is computed once per theta for
         all draws, and the Schur complements of every theta and draw are
@@ -99,7 +99,9 @@ class ModelMixture:
         Raises
         ------
         FactorizationError
-            When the regression is rank deficient at one of ``thetas``.
+            When the regression is rank deficient at every draw and theta
+            of one stacked factorisation (e.g. at every draw for a single
+            theta).
         """
         return self._stacked(thetas, None)
 
@@ -134,7 +136,7 @@ class ModelMixture:
         Raises
         ------
         FactorizationError
-            When the regression is rank deficient at one of ``thetas``.
+            As :meth:`batch_component_log_likelihoods`.
         """
         labels = np.asarray(labels, dtype=int)
         return self._stacked(thetas, labels)
@@ -162,7 +164,10 @@ class ModelMixture:
                 )
             else:
                 S = self._S_fixed[labels[chunk]] + terms
-            values = base.stacked_log_likelihoods(S, Z, self._noise_floor)
+            try:
+                values = base.stacked_log_likelihoods(S, Z, self._noise_floor)
+            except FactorizationError:  # at one (theta, draw) of the stack?
+                values = _one_by_one(base, S, Z, self._noise_floor)
             out[chunk] = values.reshape(B, per_theta)
         if labels is None:
             return self.log_weights + self._factors + out
@@ -224,6 +229,31 @@ class ModelMixture:
         """Kish's effective number of draws at ``theta`` (1 to ``K``)."""
         w = self.draw_weights(theta)
         return float(1.0 / np.sum(w**2))
+
+
+def _one_by_one(base, S, Z, noise_floor):
+    """The stack's log likelihoods factored one by one: ``-inf`` where the
+    regression is rank deficient (e.g. a draw of the discrepancy's size so
+    large, 1e20 times the data's variance, that the field rows vanish
+    beside it), as where its Schur complement is not positive definite.
+
+    Raises
+    ------
+    FactorizationError
+        When it is rank deficient at every one.
+    """
+    out = np.full(len(S), -np.inf)
+    error = None
+    for i in range(len(S)):
+        try:
+            out[i] = base.stacked_log_likelihoods(
+                S[i : i + 1], Z[i : i + 1], noise_floor
+            )[0]
+        except FactorizationError as exc:
+            error = exc
+    if error is not None and not np.isfinite(out).any():
+        raise error
+    return out
 
 
 def _component_values(mixture, thetas):

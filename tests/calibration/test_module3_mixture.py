@@ -89,6 +89,33 @@ def test_a_draw_that_cannot_be_factored_weighs_nothing(request, data):
 
 
 @pytest.mark.parametrize("data", ["problem", "gapped_problem"])
+def test_a_draw_with_a_rank_deficient_regression_weighs_nothing(request, data):
+    # A draw of the discrepancy's size 1e30 times the others' (a far draw
+    # of the proposal's prior share) makes the whitened regression rank
+    # deficient with it alone: that draw gets -inf, the others (in the
+    # same stack, at every theta) their own values, as the dense formula
+    # gives them. Before, the whole stack raised and every draw got -inf.
+    gm = request.getfixturevalue(data)[1]
+    draws = _draws()
+    thetas = np.array([[-0.7], [0.1], [0.9]])
+    expected = ModelMixture(gm, draws).batch_component_log_likelihoods(thetas)
+    broken = ModelMixture(gm, draws)
+    broken.models[1].S_fixed = 1e30 * broken.models[1].S_fixed
+    with pytest.raises(FactorizationError, match="rank"):
+        broken.models[1].log_likelihood(thetas[1])
+    values = broken.batch_component_log_likelihoods(thetas)
+    assert np.all(values[:, 1] == -np.inf)
+    keep = np.arange(4) != 1
+    np.testing.assert_allclose(values[:, keep], expected[:, keep], rtol=1e-12)
+    # Rank deficient with every draw: the error, as for one model.
+    for model in broken.models:
+        model.S_fixed = 1e30 * model.S_fixed
+    broken._S_fixed = None
+    with pytest.raises(FactorizationError, match="rank"):
+        broken.batch_component_log_likelihoods(thetas)
+
+
+@pytest.mark.parametrize("data", ["problem", "gapped_problem"])
 def test_one_draw_is_the_plug_in_model(request, dense_global, data):
     problem = request.getfixturevalue(data)
     gm = problem[1]
