@@ -262,7 +262,10 @@ def _tolerances(tol):
 def _grown(n_blocks, relative, tol):
     """Blocks for the next round: as many as the error's decay as
     ``1 / sqrt(draws)`` asks, at most twice as many, at most
-    :data:`MAX_DRAWS` draws."""
+    :data:`MAX_DRAWS` draws; twice as many while the error is unknown (a
+    block without weight has no estimate)."""
+    if not math.isfinite(relative):
+        return min(2 * n_blocks, MAX_DRAWS // N_BLOCK)
     needed = math.ceil(n_blocks * (relative / tol) ** 2)
     return min(max(needed, n_blocks + 1), 2 * n_blocks, MAX_DRAWS // N_BLOCK)
 

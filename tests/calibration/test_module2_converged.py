@@ -188,6 +188,17 @@ def test_warns_when_the_tolerance_is_not_reached(case, monkeypatch):
     assert np.all(np.isfinite(cal.theta_mcse_))
 
 
+def test_an_unknown_error_doubles_the_draws():
+    # A NaN error (a block without any weight has no estimate; it stopped a
+    # CI run with "cannot convert float NaN to integer") is not met: twice
+    # the blocks, up to the cap, never a crash.
+    cap = converged.MAX_DRAWS // converged.N_BLOCK
+    assert converged._grown(4, float("nan"), 0.05) == 8
+    assert converged._grown(cap, float("nan"), 0.05) == cap
+    assert converged._grown(4, 0.1, 0.05) == 8
+    assert converged._grown(8, 0.05, 0.05) == 9
+
+
 def test_default_integrates_to_its_tolerance_and_none_to_16_draws(case):
     # "auto" (the default) is discrepancy_tol=0.05 with one parameter; None
     # keeps module 2's 16 draws and reports no error.
