@@ -53,7 +53,8 @@ def _weeks(data, n):
 def test_fitted_attributes(detector):
     assert detector.parameter_names_ == ["E", "k_bearing"]
     np.testing.assert_array_equal(
-        detector.theta_reference_, detector.calibrator_.theta_mean_
+        detector.theta_reference_,
+        np.median(detector.calibrator_.theta_samples_, axis=0),
     )
     assert detector.n_features_in_ == 1
 
@@ -117,7 +118,10 @@ def test_a_stiffness_loss_is_detected_and_put_on_the_deck(detector):
     assert -0.0085 < effective[0] < -0.007
     # The detector reads it through the emulator of 60 simulations, whose
     # error (not in the report's sd) moves the reading by up to 0.2 % of E:
-    # -0.71 % and -0.90 % with emulators of log-likelihood 292.2 and 295.8.
+    # -0.71 % and -0.90 % with emulators of log-likelihood 292.2 and 295.8
+    # (theta_0 the posterior mean). From the posterior median (theta_0 now)
+    # -0.90 % with the second; from the mean, which follows the chains'
+    # draws of k_bearing's tail, it was -1.39 % on another processor.
     assert abs(e["mean"] - effective[0]) < 0.002
     # Below the default 1 % threshold with posterior probability above 99 %,
     # surely above 0.1 % (the normal tails, against the dense formula).
