@@ -440,10 +440,10 @@ def _report_identifiability(cal):
             "data, and the interval misses E* when the model error has that "
             "shape, as the spring's has, whatever its size. Other responses "
             "(the sensor ranking below) "
-            "or prior information on E are what identify it. Across plausible "
-            "model errors (theta_robust_interval_) E lies in "
-            f"[{cal.theta_robust_interval_[0, 0] / 1e3:.1f}, "
-            f"{cal.theta_robust_interval_[0, 1] / 1e3:.1f}] GPa."
+            "or prior information on E are what identify it. "
+            "cal.prior_sensitivity() refits under a stated class of "
+            "discrepancy priors: how far the interval moves with them, and "
+            "E's range across the class (its union rows)."
         )
     else:
         _say(

@@ -37,7 +37,7 @@ _RESULTS_HEAD = (
 _DETAILS_HEAD = (
     f"{'case':<7} {'mean z':<13} {'post. sd: median [max]':<34} "
     f"{'sd ~ prior':<10} {'noise_/true (median)':<21} "
-    f"{'identifiability_':<17} {'robust covered [width]':<23} "
+    f"{'identifiability_':<17} "
     f"{'reality, new obs: 95 % CI':<27} {'one draw':<8} fit [s]"
 )
 
@@ -83,15 +83,11 @@ def _details_row(name, s):
     )
     ident = s["identifiability"]
     ident = "-" if np.all(np.isnan(ident)) else _join(ident, ".3g")
-    robust = ", ".join(
-        f"{k}/{s['n_ok']} [{w:.3g}]"
-        for k, w in zip(s["covered_robust"], s["robust_width"], strict=True)
-    )
     ci = ", ".join(f"[{lo:.3f}, {hi:.3f}]" for lo, hi in s["cover_ci"])
     return (
         f"{name:<7} {_join(s['mean_z'], '+.2f'):<13} "
         f"{sd_text:<34} {_join(s['prior_like'], 'd'):<10} "
-        f"{_join(s['noise_ratio'], '.2f'):<21} {ident:<17} {robust:<23} "
+        f"{_join(s['noise_ratio'], '.2f'):<21} {ident:<17} "
         f"{ci:<27} {s['cover_obs_draw']:<8.3f} {s['fit_seconds']:.1f}"
     )
 
@@ -153,8 +149,8 @@ def provenance(command=""):
 _CSV_FIELDS = [
     "case", "seed", "parameter", "theta_true", "theta_mean", "theta_sd",
     "prior_sd", "lo", "hi", "covered", "z", "rank", "cover_reality", "cover_obs",
-    "cover_obs_draw", "noise_ratio", "identifiability", "covered_robust",
-    "robust_width", "fit_seconds", "warnings", "error",
+    "cover_obs_draw", "noise_ratio", "identifiability", "fit_seconds",
+    "warnings", "error",
 ]  # fmt: skip
 
 
@@ -166,12 +162,7 @@ def _csv_rows(record, names):
         row["warnings"] = ";".join(sorted(set(r["warning_categories"])))
         row["error"] = r["error"]
         if r["ok"]:
-            per_parameter = [
-                *_CSV_FIELDS[3:12],
-                "identifiability",
-                "covered_robust",
-                "robust_width",
-            ]
+            per_parameter = [*_CSV_FIELDS[3:12], "identifiability"]
             for k in per_parameter:
                 row[k] = r[k][j]
             row["noise_ratio"] = _join(r["noise_ratio"], ".4g")

@@ -47,8 +47,6 @@ RECORD_ARRAYS = (
     "lo",
     "hi",
     "covered",
-    "covered_robust",
-    "robust_width",
     "z",
     "rank",
     "cover_reality",
@@ -279,8 +277,6 @@ def _theta_scores(stack, n, n_rank):
     k_cov = stack["covered"].sum(axis=0)
     s["covered"] = k_cov
     s["wilson"] = [wilson_interval(k, n) for k in k_cov]
-    s["covered_robust"] = stack["covered_robust"].sum(axis=0)
-    s["robust_width"] = np.median(stack["robust_width"], axis=0)
     s["rms_z"] = rms(stack["z"])
     s["mean_z"] = stack["z"].mean(axis=0)
     tests = [rank_tests(col, n_rank) for col in stack["rank"].T]

@@ -105,9 +105,6 @@ def _fit_and_score(spec, seed, n_test, n_rank, options=None):
     y_new = fresh_observations(truth, case.noise_sd, seed)
     cover_obs_draw = np.mean(np.abs(y_new - mean) <= Z_LEVEL * std)
     identifiability = getattr(cal, "identifiability_", None)
-    robust = getattr(cal, "theta_robust_interval_", None)
-    if robust is None:
-        robust = np.full((len(t), 2), np.nan)
     return {
         "theta_true": t,
         "theta_mean": cal.theta_mean_,
@@ -116,8 +113,6 @@ def _fit_and_score(spec, seed, n_test, n_rank, options=None):
         "lo": lo,
         "hi": hi,
         "covered": (lo <= t) & (t <= hi),
-        "covered_robust": (robust[:, 0] <= t) & (t <= robust[:, 1]),
-        "robust_width": (robust[:, 1] - robust[:, 0]) / (hi - lo),
         "z": (cal.theta_mean_ - t) / sd,
         "rank": np.sum(thinned(samples, n_rank) < t, axis=0),
         "cover_reality": float(cover_reality),

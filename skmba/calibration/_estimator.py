@@ -249,10 +249,6 @@ class ModularBayesCalibrator(
         data account for (linearised, without a discrepancy), at most 1; the
         plug-in's: the share a plausible discrepancy would leave. Below 1/3
         ``fit`` warns (:class:`~skmba.exceptions.NonIdentifiabilityWarning`).
-    theta_robust_interval_ : ndarray of shape (r, 2)
-        Per parameter, the posterior mean -+ 1.96 linearised sds with a
-        discrepancy of each response's sd at the 95 % point of its prior,
-        within the prior's support (User Guide, "How honest are the intervals?").
     parameter_names_ : list of str
         The names of the calibration parameters: the keys of a dict prior
         (or, without a prior, the columns of a ``theta_sim`` DataFrame),
@@ -583,13 +579,13 @@ class ModularBayesCalibrator(
         """Every fitted attribute, in one place."""
         for name in OPTIONAL_FITTED:
             self.__dict__.pop(name, None)
-        prior = self.prior_ = result.inputs.prior
-        self.parameter_names_ = parameter_names(prior)
+        self.prior_ = result.inputs.prior
+        self.parameter_names_ = parameter_names(self.prior_)
         self.response_names_ = responses
         self.X_obs_, self.y_obs_ = X, Y[:, 0] if y_ndim == 1 else Y
         self.X_sim_, self.theta_sim_, self.y_sim_ = sims.X, sims.theta, sims.y
         self.simulation_failures_ = list(sims.failures)
-        for name, value in fitted_attributes(result, prior).items():
+        for name, value in fitted_attributes(result).items():
             setattr(self, name, value)
         self._y_ndim, self._scaler = y_ndim, result.inputs.scaler
         self._log_posterior = result.module3.log_post

@@ -36,11 +36,11 @@ over ``probe_sd`` below: what a discrepancy of plausible size would do.
 The linearised posterior sd with a discrepancy of plausible size, each
 response's sd at the 95 % point of its prior
 (:meth:`~skmba.priors._hyperprior.Hyperprior.sd_quantile`) with the fitted
-roughness and correlation between responses, ``probe_sd``, gives
-``theta_robust_interval_`` (:func:`robust_interval`): theta's 95 % interval
-if the model error were of that plausible size, from the posterior mean and
-clipped to the prior's support. Where theta is identified it is about the
-posterior interval; where it is not, most of the prior.
+roughness and correlation between responses, is ``probe_sd``. (It gave
+``theta_robust_interval_``, removed: a Gaussian width at one fixed
+discrepancy size, labelled 95 % with no posterior behind it; the range of
+theta over a stated class of discrepancy priors is the ``union`` rows of
+``prior_sensitivity()``.)
 
 Examples
 --------
@@ -56,7 +56,7 @@ discrepancy of no size: the same sd with and without it.
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import linalg, stats
+from scipy import linalg
 
 from skmba._core.linalg import observed_block, observed_rows
 from skmba._core.regression import regression_basis
@@ -71,12 +71,6 @@ IDENTIFIABILITY_THRESHOLD = 1.0 / 3.0
 PROBE_LEVEL = 0.95
 # Finite-difference step of the sensitivities (standardised theta).
 _STEP = 1e-3
-#: Level of ``theta_robust_interval_`` (that of the validity suite's and
-#: ``summary()``'s intervals).
-ROBUST_LEVEL = 0.95
-# The prior's support, for clipping the robust interval: its central
-# 1 - 1e-9 (the support itself for a bounded prior).
-_SUPPORT = 1.0 - 1e-9
 
 
 @dataclass(frozen=True)
@@ -230,40 +224,6 @@ def identifiability(model, theta, posterior_cov, hyperprior):
     with np.errstate(invalid="ignore", divide="ignore"):
         ratio = np.sqrt(_marginal_variances(information)) / probe_sd
     return Identifiability(np.where(np.isfinite(ratio), ratio, 0.0), probe_sd)
-
-
-def robust_interval(mean, probe_sd, prior, level=ROBUST_LEVEL):
-    """``theta_robust_interval_``: ``mean -+ z probe_sd``, within the prior.
-
-    Parameters
-    ----------
-    mean : ndarray of shape (r,)
-        The posterior mean (user units).
-    probe_sd : ndarray of shape (r,)
-        :attr:`Identifiability.probe_sd` in user units.
-    prior : skmba prior object
-    level : float
-        Central probability of the Gaussian interval.
-
-    Returns
-    -------
-    ndarray of shape (r, 2)
-        Lower and upper ends, clipped to the prior's support (its central
-        ``1 - 1e-9`` for an unbounded prior).
-
-    Examples
-    --------
-    >>> from scipy import stats
-    >>> from skmba.priors._theta import check_prior
-    >>> prior = check_prior([stats.uniform(0, 10), stats.uniform(0, 10)])
-    >>> robust_interval(np.array([5.0, 5.0]), np.array([1.0, np.inf]), prior)
-    array([[ 3.04003602,  6.95996398],
-           [ 0.        , 10.        ]])
-    """
-    half = stats.norm.ppf(0.5 + 0.5 * level) * np.asarray(probe_sd, dtype=float)
-    ends = np.column_stack([mean - half, mean + half])
-    support = prior.bounds(_SUPPORT)
-    return np.clip(ends, support[:, :1], support[:, 1:])
 
 
 def warn_if_confounded(values, names):

@@ -57,7 +57,7 @@ from skmba.calibration._module2_prior_integral import (
     one_parameter_rule,
     prior_units,
 )
-from skmba.calibration._module3_identifiability import identifiability, robust_interval
+from skmba.calibration._module3_identifiability import identifiability
 from skmba.calibration._module3_likelihood import GlobalModel
 from skmba.calibration._module3_mixture import ModelMixture
 from skmba.calibration._module3_posterior import (
@@ -521,7 +521,7 @@ def _mcse(error, r):
     return np.array([[error.mean], [error.sd], [error.lower], [error.upper]])
 
 
-def fitted_attributes(result, prior):
+def fitted_attributes(result):
     """The calibrator's public fitted attributes of the modules (user units).
 
     Returns a dict ``{attribute name: value}``; the optional attributes
@@ -546,9 +546,6 @@ def fitted_attributes(result, prior):
         "theta_mean_": posterior.mean,
         "theta_cov_": posterior.cov,
         "identifiability_": result.identifiability.ratio,
-        "theta_robust_interval_": robust_interval(
-            posterior.mean, result.identifiability.probe_sd * scaler.theta_scale, prior
-        ),
         "global_model_": result.module3.log_post.model,
         "theta_mcse_": _mcse(result.module3.error, len(posterior.mean)),
         "discrepancy_draws_": len(result.module2.components),

@@ -28,7 +28,16 @@ from skmba.priors._hyperprior import Hyperprior
 from skmba.priors._table_6_2 import TABLE_6_2_RANGES
 
 #: The columns of :meth:`PriorSensitivityMixin.prior_sensitivity`.
-SENSITIVITY_COLUMNS = ("mean", "sd", "2.5%", "97.5%", "sd_ratio", "shift", "r_hat")
+SENSITIVITY_COLUMNS = (
+    "mean",
+    "sd",
+    "2.5%",
+    "97.5%",
+    "sd_ratio",
+    "shift",
+    "r_hat",
+    "prior_share",
+)
 
 
 def prior_variants(spec, treatment, roughness_factor, size_factor):
@@ -115,8 +124,15 @@ class PriorSensitivityMixin:
             itself). Columns: the posterior ``mean``, ``sd``, ``2.5%`` and
             ``97.5%``; ``sd_ratio``, the sd over the fit's; ``shift``, the
             mean's change in the fit's sds; ``r_hat``, the largest R-hat
-            of a refit's chains (NaN for quadrature). The union of the
-            rows' intervals is the range of the stated class (robust Bayes).
+            of a refit's chains (NaN for quadrature); ``prior_share``, the
+            interval's width over that of the prior's central 95 %. Last,
+            a ``union[parameter]`` row per parameter: the union of the
+            five intervals, theta's 95 % range over the stated class of
+            discrepancy priors (robust Bayes, Berger 1994), with its
+            ``prior_share`` and largest ``r_hat`` (the other columns NaN).
+            It is as wide as the class is: a discrepancy shaped like
+            theta's effect can lie outside every prior of the class (User
+            Guide, "What sets the interval's width").
         """
         check_is_fitted(self, "theta_mean_")
         for name, value in (("roughness_factor", roughness_factor),
@@ -135,13 +151,18 @@ class PriorSensitivityMixin:
         )
         rhat = getattr(self, "rhat_", None)
         own = (self.theta_samples_, np.nan if rhat is None else float(np.max(rhat)))
+        prior_width = np.diff(self.prior_.bounds(0.95), axis=1)[:, 0]
         return _sensitivity_table(
-            [name for name, _ in variants], [own, *refits], self.parameter_names_
+            [name for name, _ in variants],
+            [own, *refits],
+            self.parameter_names_,
+            prior_width,
         )
 
 
-def _sensitivity_table(names, fits, parameters):
-    """The table of :meth:`PriorSensitivityMixin.prior_sensitivity`."""
+def _sensitivity_table(names, fits, parameters, prior_width):
+    """The table of :meth:`PriorSensitivityMixin.prior_sensitivity`; the
+    prior's central 95 % widths ``prior_width`` (r,)."""
     rows, values = [], []
     base_mean = np.mean(fits[0][0], axis=0)
     base_sd = np.std(fits[0][0], axis=0, ddof=1)
@@ -159,7 +180,17 @@ def _sensitivity_table(names, fits, parameters):
                     sd[j] / base_sd[j],
                     (mean[j] - base_mean[j]) / base_sd[j],
                     rhat,
+                    (ends[1, j] - ends[0, j]) / prior_width[j],
                 ]
             )
+    r = len(parameters)
+    for j, parameter in enumerate(parameters):
+        each = np.array(values[j::r])
+        lo, hi = each[:, 2].min(), each[:, 3].max()
+        rhats = each[:, 6]
+        rhat = np.nan if np.all(np.isnan(rhats)) else np.nanmax(rhats)
+        rows.append(f"union[{parameter}]")
+        nan = np.nan
+        values.append([nan, nan, lo, hi, nan, nan, rhat, (hi - lo) / prior_width[j]])
     columns = np.array(values, dtype=float).T
     return table("variant", rows, dict(zip(SENSITIVITY_COLUMNS, columns, strict=True)))

@@ -49,8 +49,6 @@ CALIBRATION_COLUMNS = (
     "r_hat",
     "ess_bulk",
     "identifiability",
-    "robust_2.5%",
-    "robust_97.5%",
 )
 
 
@@ -260,8 +258,6 @@ class CalibrationSummaryMixin:
             "r_hat": np.asarray(getattr(self, "rhat_", nan), dtype=float),
             "ess_bulk": np.asarray(getattr(self, "ess_", nan), dtype=float),
             "identifiability": np.asarray(self.identifiability_, dtype=float),
-            "robust_2.5%": self.theta_robust_interval_[:, 0],
-            "robust_97.5%": self.theta_robust_interval_[:, 1],
         }
         return columns
 
@@ -391,10 +387,7 @@ class CalibrationSummaryMixin:
             if not math.isnan(columns["r_hat"][j]):
                 r_hat, ess = columns["r_hat"][j], columns["ess_bulk"][j]
                 text += f", R-hat {r_hat:.3f}, ESS {ess:.0f}"
-            text += (
-                f", identifiability {columns['identifiability'][j]:.3g}, robust 95% "
-                f"[{columns['robust_2.5%'][j]:.5g}, {columns['robust_97.5%'][j]:.5g}]"
-            )
+            text += f", identifiability {columns['identifiability'][j]:.3g}"
             parts.append(text)
         method = "MCMC" if hasattr(self, "theta_chains_") else "quadrature"
         return f"ModularBayesCalibrator ({method}): " + "; ".join(parts)

@@ -5,17 +5,14 @@ import warnings
 
 import numpy as np
 import pytest
-from scipy import stats
 
 from skmba.calibration._module3_identifiability import (
     IDENTIFIABILITY_THRESHOLD,
     data_share,
     linearised_sds,
-    robust_interval,
     warn_if_confounded,
 )
 from skmba.exceptions import NonIdentifiabilityWarning
-from skmba.priors._theta import check_prior
 
 
 def _gauss(x, roughness):
@@ -67,23 +64,6 @@ def test_information_ratio_equals_dense_posterior_sds():
     np.testing.assert_allclose(
         linearised_sds(J, V0, K, X_d), np.sqrt([var0, var1]), rtol=1e-8
     )
-
-
-def test_robust_interval_is_gaussian_and_stays_in_the_prior():
-    prior = check_prior([stats.uniform(0.0, 10.0), stats.norm(0.0, 1.0)])
-    z = stats.norm.ppf(0.975)
-    out = robust_interval(np.array([5.0, 0.2]), np.array([0.5, 0.1]), prior)
-    np.testing.assert_allclose(
-        out, [[5 - z * 0.5, 5 + z * 0.5], [0.2 - z * 0.1, 0.2 + z * 0.1]]
-    )
-    # A parameter that no data identify: the prior's support (for the
-    # Gaussian, its central 1 - 1e-9: +-6.1 sd).
-    out = robust_interval(np.array([9.5, 0.2]), np.array([np.inf, np.inf]), prior)
-    np.testing.assert_allclose(out[0], [0.0, 10.0])
-    np.testing.assert_allclose(out[1], stats.norm.ppf([0.5e-9, 1 - 0.5e-9]))
-    # Near a bound: clipped on that side only.
-    out = robust_interval(np.array([9.5, 0.0]), np.array([1.0, 1.0]), prior, 0.5)
-    np.testing.assert_allclose(out[0], [9.5 - stats.norm.ppf(0.75), 10.0])
 
 
 def test_warning_names_the_parameter_and_the_remedies():

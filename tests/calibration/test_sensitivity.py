@@ -50,7 +50,7 @@ def test_rows_are_the_fit_and_refits_with_the_stated_priors(a1):
     # with that discrepancy_prior from scratch (same settings and seed).
     case, cal, tab = a1
     assert list(tab.columns) == [
-        "mean", "sd", "2.5%", "97.5%", "sd_ratio", "shift", "r_hat"
+        "mean", "sd", "2.5%", "97.5%", "sd_ratio", "shift", "r_hat", "prior_share"
     ]  # fmt: skip
     row = tab.loc["default[theta0]"]
     samples = cal.theta_samples_[:, 0]
@@ -64,6 +64,31 @@ def test_rows_are_the_fit_and_refits_with_the_stated_priors(a1):
     assert row["97.5%"] == pytest.approx(np.quantile(other, 0.975), rel=1e-12)
     ratio = np.std(other, ddof=1) / np.std(samples, ddof=1)
     assert row["sd_ratio"] == pytest.approx(ratio, rel=1e-12)
+    ((lo, hi),) = cal.prior_.bounds(0.95)
+    width = np.subtract(*np.quantile(other, [0.975, 0.025]))
+    assert row["prior_share"] == pytest.approx(width / (hi - lo), rel=1e-12)
+
+
+def test_union_is_the_range_over_the_class(a1):
+    # The last row: the union of the five intervals (robust Bayes over the
+    # stated class), its width against the prior's central 95 %.
+    _, _, tab = a1
+    assert list(tab.index)[-1] == "union[theta0]"
+    variants = tab.iloc[:-1]
+    union = tab.loc["union[theta0]"]
+    assert union["2.5%"] == variants["2.5%"].min()
+    assert union["97.5%"] == variants["97.5%"].max()
+    assert union["prior_share"] == pytest.approx(variants["prior_share"].max() * (
+        (union["97.5%"] - union["2.5%"])
+        / (variants["97.5%"] - variants["2.5%"]).max()
+    ), rel=1e-12)  # fmt: skip
+    assert np.isnan(union[["mean", "sd", "sd_ratio", "shift", "r_hat"]]).all()
+    # wider than the fit's own, narrower than the prior on a1 seed 0
+    assert (
+        union["97.5%"] - union["2.5%"]
+        > tab.loc["default[theta0]", "97.5%"] - (tab.loc["default[theta0]", "2.5%"])
+    )
+    assert 0 < union["prior_share"] < 1
 
 
 def test_a_confounded_interval_moves_with_the_roughness_prior(a1):
@@ -80,9 +105,14 @@ def test_an_identified_interval_barely_moves():
     # freq (theta sets a frequency): the data set the width (measured, seed 0:
     # sd ratios 0.94-1.34 over the four priors, shifts within 0.4 sd).
     tab = _fit(case_freq(0)).prior_sensitivity()
-    ratios = tab["sd_ratio"].to_numpy()
+    variants = tab.drop(index="union[theta0]")
+    ratios = variants["sd_ratio"].to_numpy()
     assert np.all((ratios > 0.75) & (ratios < 1.5))
-    assert np.all(np.abs(tab["shift"].to_numpy()) < 0.6)
+    assert np.all(np.abs(variants["shift"].to_numpy()) < 0.6)
+    # the range over the class: about the fit's own interval
+    own = variants.loc["default[theta0]"]
+    union = tab.loc["union[theta0]"]
+    assert union["prior_share"] < 2 * own["prior_share"]
 
 
 @pytest.mark.parametrize("bad", [1.0, 0.5, np.nan, "10"])

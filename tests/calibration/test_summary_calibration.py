@@ -92,8 +92,6 @@ def expected_columns(cal):
         "r_hat": getattr(cal, "rhat_", np.full(r, np.nan)),
         "ess_bulk": getattr(cal, "ess_", np.full(r, np.nan)),
         "identifiability": cal.identifiability_,
-        "robust_2.5%": cal.theta_robust_interval_[:, 0],
-        "robust_97.5%": cal.theta_robust_interval_[:, 1],
     }
 
 
@@ -134,8 +132,6 @@ def test_summary_shows_identifiability(mcmc, monkeypatch):
     table = mcmc.summary()
     np.testing.assert_array_equal(table["identifiability"], [0.2, 0.9])
     assert "identifiability 0.2" in mcmc.summary(kind="text")
-    lo, hi = mcmc.theta_robust_interval_[0]
-    assert f"robust 95% [{lo:.5g}, {hi:.5g}]" in mcmc.summary(kind="text")
 
 
 def test_summary_needs_a_fitted_calibrator():
