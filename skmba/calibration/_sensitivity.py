@@ -127,7 +127,7 @@ class PriorSensitivityMixin:
             of a refit's chains (NaN for quadrature); ``prior_share``, the
             interval's width over that of the prior's central 95 %. Last,
             a ``union[parameter]`` row per parameter: the union of the
-            five intervals, theta's 95 % range over the stated class of
+            rows' intervals, theta's 95 % range over the stated class of
             discrepancy priors (robust Bayes, Berger 1994), with its
             ``prior_share`` and largest ``r_hat`` (the other columns NaN).
             It is as wide as the class is: a discrepancy shaped like

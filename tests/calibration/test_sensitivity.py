@@ -72,16 +72,15 @@ def test_rows_are_the_fit_and_refits_with_the_stated_priors(a1):
 def test_union_is_the_range_over_the_class(a1):
     # The last row: the union of the five intervals (robust Bayes over the
     # stated class), its width against the prior's central 95 %.
-    _, _, tab = a1
+    _, cal, tab = a1
     assert list(tab.index)[-1] == "union[theta0]"
     variants = tab.iloc[:-1]
     union = tab.loc["union[theta0]"]
     assert union["2.5%"] == variants["2.5%"].min()
     assert union["97.5%"] == variants["97.5%"].max()
-    assert union["prior_share"] == pytest.approx(variants["prior_share"].max() * (
-        (union["97.5%"] - union["2.5%"])
-        / (variants["97.5%"] - variants["2.5%"]).max()
-    ), rel=1e-12)  # fmt: skip
+    ((lo, hi),) = cal.prior_.bounds(0.95)
+    width = union["97.5%"] - union["2.5%"]
+    assert union["prior_share"] == pytest.approx(width / (hi - lo), rel=1e-12)
     assert np.isnan(union[["mean", "sd", "sd_ratio", "shift", "r_hat"]]).all()
     # wider than the fit's own, narrower than the prior on a1 seed 0
     assert (
