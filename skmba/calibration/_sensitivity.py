@@ -183,11 +183,11 @@ def _sensitivity_table(names, fits, parameters, prior_width):
                     (ends[1, j] - ends[0, j]) / prior_width[j],
                 ]
             )
-    r = len(parameters)
+    r, col = len(parameters), SENSITIVITY_COLUMNS.index
     for j, parameter in enumerate(parameters):
-        each = np.array(values[j::r])
-        lo, hi = each[:, 2].min(), each[:, 3].max()
-        rhats = each[:, 6]
+        each = np.array(values[j::r])  # parameter j's row of every fit
+        lo, hi = each[:, col("2.5%")].min(), each[:, col("97.5%")].max()
+        rhats = each[:, col("r_hat")]
         rhat = np.nan if np.all(np.isnan(rhats)) else np.nanmax(rhats)
         rows.append(f"union[{parameter}]")
         nan = np.nan
