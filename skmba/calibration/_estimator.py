@@ -21,26 +21,17 @@ from typing import ClassVar
 
 import numpy as np
 from sklearn.base import BaseEstimator, MultiOutputMixin, RegressorMixin
-from sklearn.utils.validation import check_consistent_length, validate_data
+from sklearn.utils.validation import validate_data
 
-from skmba._core.columns import column_names
 from skmba._core.progress import Progress
 from skmba._core.threads import blas_threads
 from skmba._core.validation import int_seed, seed_sequence, validate_parameter_table
 from skmba.calibration._field_data import (
-    check_field_data,
     check_responses,
     check_same_index,
     check_simulation_design,
-    checked_field_y,
     field_order,
-    measured_field_data,
-    named_simulations,
-    pandas_index,
-    prior_names,
-    row_labels,
     simulation_tables,
-    warn_few_distinct_inputs,
 )
 from skmba.calibration._field_replicates import (
     FieldReadings,
@@ -48,6 +39,7 @@ from skmba.calibration._field_replicates import (
     check_bin_width,
 )
 from skmba.calibration._fit_setup import (
+    checked_field_data,
     module2_prior,
     prior_and_simulations,
     warn_field_size,
@@ -188,6 +180,15 @@ class ModularBayesCalibrator(
         blocks of 128 draws, at most 4096; reported by ``summary()``.
         "auto": 0.05, reproducible whatever ``random_state`` (User Guide);
         16 draws with several parameters. None: 16 draws, moving with it.
+    estimand : {"physical", "best_fit"}, default="physical"
+        What theta's posterior (``theta_samples_``, ``theta_mean_``,
+        ``theta_cov_``, ``theta_mcse_``, ``summary()``) is of. "physical":
+        the true parameter of Kennedy & O'Hagan's model, confounded with a
+        discrepancy that mimics its effect (``fit`` warns). "best_fit": the
+        theta that brings the model closest to reality, in least squares
+        over the field inputs (each response in its simulations' spread),
+        within the simulated range: reality's posterior projected on the
+        model (User Guide, "The best-fit estimand"); no confounding warning.
     emulator_alpha : float, default=1e-8
         Nugget of the emulator's correlation matrix at the simulations (not
         at the field inputs, where the model is the simulator's output).
@@ -222,7 +223,8 @@ class ModularBayesCalibrator(
         the mean on 20-30 readings; ``predict`` adds the mean, User Guide).
     theta_samples_ : ndarray of shape (n_draws, r)
         Posterior draws (pooled chains after burn-in, or draws from the
-        quadrature posterior).
+        quadrature posterior; with ``estimand="best_fit"``, of the best fit,
+        while ``theta_chains_`` and ``theta_nodes_`` stay module 3's).
     theta_chains_ : ndarray of shape (n_chains, n_kept, r)
         The MCMC draws after burn-in chain by chain (``n_kept`` at most
         ``n_samples``, fewer when ``target_ess`` stopped them), in user
@@ -239,6 +241,8 @@ class ModularBayesCalibrator(
         Monte Carlo errors of the posterior mean, sd, 2.5 % and 97.5 % ends
         from the integral over the hyperparameters (``discrepancy_tol``);
         NaN where not estimated.
+    estimand_ : {"physical", "best_fit"}
+        What ``theta_samples_``, ``theta_mean_`` and ``theta_cov_`` are of.
     discrepancy_draws_ : int
         Draws of the hyperparameters module 3 integrates over.
     discrepancy_prior_units_ : PriorUnits
@@ -350,6 +354,7 @@ class ModularBayesCalibrator(
         discrepancy_uncertainty="propagate",
         discrepancy_prior=None,
         discrepancy_tol="auto",
+        estimand="physical",
         emulator_alpha=1e-8,
         bin_width=None,
         verbose=0,
@@ -377,6 +382,7 @@ class ModularBayesCalibrator(
         self.discrepancy_uncertainty = discrepancy_uncertainty
         self.discrepancy_prior = discrepancy_prior
         self.discrepancy_tol = discrepancy_tol
+        self.estimand = estimand
         self.emulator_alpha = emulator_alpha
         self.bin_width = bin_width
         self.verbose = verbose
@@ -496,7 +502,8 @@ class ModularBayesCalibrator(
             raise
         self._readings_log = (X, y)
         self._set_fitted(**fitted, continued=warm is not None)
-        warn_if_confounded(self.identifiability_, self.parameter_names_)
+        if self.estimand == "physical":  # the best fit is what the data tell
+            warn_if_confounded(self.identifiability_, self.parameter_names_)
         return self
 
     def _fit(self, X, y, X_sim, theta_sim, y_sim, partial, warm):
@@ -507,8 +514,8 @@ class ModularBayesCalibrator(
         settings = CalibrationSettings.from_params(self.get_params(deep=False))
         # An update's earlier rows were checked by their own call.
         reported = 0 if warm is None else len(self._readings_log[0])
-        X, Y, y_ndim, responses, tables, rows = self._field_data(
-            X, y, (X_sim, theta_sim, y_sim), reported
+        X, Y, y_ndim, responses, tables, rows = checked_field_data(
+            self, X, y, (X_sim, theta_sim, y_sim), reported
         )
         width = check_bin_width(settings.bin_width, X.shape[1])
         readings = FieldReadings.from_readings(X, Y, width)
@@ -516,8 +523,9 @@ class ModularBayesCalibrator(
         # Before any simulation runs: a bad range must not waste them.
         module2_spec = module2_prior(settings, X, Y.shape[1])
         # One child of the seed per random step: the simulation design, then
-        # modules 1, 2a, 2b and 3.
-        seeds = [int_seed(c) for c in seed_sequence(self.random_state).spawn(7)]
+        # modules 1-3 (run_modules) and the best fit. A child depends on its
+        # index only: adding one left the others' draws as they were.
+        seeds = [int_seed(c) for c in seed_sequence(self.random_state).spawn(8)]
         progress = Progress(self.verbose, "ModularBayesCalibrator")
         if warm is None:
             named = (responses, tables)
@@ -544,37 +552,6 @@ class ModularBayesCalibrator(
             update=(rows[-1], readings),
         )
 
-    def _field_data(self, X, y, simulations, reported):
-        """The field data checked (the measured rows, C order; rows before
-        ``reported`` without a warning), the labels of those rows, and the
-        simulation tables matched to them by name."""
-        check_field_data(X, y, self.discrepancy_regression)
-        check_same_index(X, y)
-        index = pandas_index(y)
-        features, responses = column_names(X), column_names(y)
-        X = validate_data(self, X)
-        y = checked_field_y(y)  # NaN allowed: a reading not taken
-        labels = row_labels(index, len(y))
-        check_consistent_length(X, y)
-        # Tables of simulations are matched to the field data and the prior
-        # by their column labels (arrays by position).
-        tables = named_simulations(
-            *simulations,
-            features=features,
-            parameters=prior_names(self.prior),
-            responses=responses,
-        )
-        # C order whatever the input's (a DataFrame gives Fortran order): the
-        # same bits as from an array.
-        X = np.ascontiguousarray(X, dtype=float)
-        Y = np.ascontiguousarray(y, dtype=float).reshape(len(X), -1)
-        kept = np.isfinite(Y).any(axis=1)
-        X, Y = measured_field_data(
-            X, Y, self.discrepancy_regression, responses, reported
-        )
-        warn_few_distinct_inputs(X, self.discrepancy_regression)
-        return X, Y, np.ndim(y), responses, tables, labels[kept]
-
     def _set_fitted(self, X, Y, y_ndim, responses, sims, result, update, continued):
         """Every fitted attribute, in one place."""
         for name in OPTIONAL_FITTED:
@@ -592,5 +569,8 @@ class ModularBayesCalibrator(
         self._prediction_rule = result.module3.rule
         self._modules = WarmStart.of(result)  # for partial_fit
         earlier = self._history if continued else []  # fit starts the record
-        self._history = [*earlier, history_row(*update, result.module3.posterior)]
+        posterior = result.module3.posterior
+        if result.best_fit is not None:
+            posterior = result.best_fit.posterior
+        self._history = [*earlier, history_row(*update, posterior)]
         self.theta_history_ = history_table(self._history, self.parameter_names_)

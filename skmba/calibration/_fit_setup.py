@@ -5,15 +5,31 @@
 - :func:`module2_prior`: the module-2 prior (propagated) or ranges
   (plug-in), checked before any simulation runs;
 - :func:`prior_and_simulations` (with :func:`simulations_for`): the checked
-  prior of theta and the simulations, given and run.
+  prior of theta and the simulations, given and run;
+- :func:`checked_field_data`: the field data checked, their row labels and
+  the simulation tables matched to them by name.
 
 :func:`~skmba.calibration._pipeline.run_modules` then runs modules 1-3.
 """
+
+import numpy as np
+from sklearn.utils.validation import check_consistent_length, validate_data
 
 from skmba._core.columns import column_names
 from skmba._core.linalg import FLOAT_BYTES
 from skmba._core.progress import duration_text
 from skmba._core.warn import warn
+from skmba.calibration._field_data import (
+    check_field_data,
+    check_same_index,
+    checked_field_y,
+    measured_field_data,
+    named_simulations,
+    pandas_index,
+    prior_names,
+    row_labels,
+    warn_few_distinct_inputs,
+)
 from skmba.calibration._module2_posterior import N_HYPER_DRAWS
 from skmba.calibration._module2_prior_integral import one_parameter_rule
 from skmba.calibration._simulations import (
@@ -125,3 +141,37 @@ def prior_and_simulations(settings, prior, X, q, named, seed, progress):
             f"{prior.dim} parameters."
         )
     return prior, sims
+
+
+def checked_field_data(estimator, X, y, simulations, reported):
+    """The field data of ``estimator.fit`` checked (the measured rows, C
+    order; rows before ``reported`` without a warning), the labels of those
+    rows, and the simulation tables matched to them by name. ``estimator``
+    for scikit-learn's ``validate_data`` (feature names and count) and its
+    ``discrepancy_regression`` and ``prior``."""
+    check_field_data(X, y, estimator.discrepancy_regression)
+    check_same_index(X, y)
+    index = pandas_index(y)
+    features, responses = column_names(X), column_names(y)
+    X = validate_data(estimator, X)
+    y = checked_field_y(y)  # NaN allowed: a reading not taken
+    labels = row_labels(index, len(y))
+    check_consistent_length(X, y)
+    # Tables of simulations are matched to the field data and the prior
+    # by their column labels (arrays by position).
+    tables = named_simulations(
+        *simulations,
+        features=features,
+        parameters=prior_names(estimator.prior),
+        responses=responses,
+    )
+    # C order whatever the input's (a DataFrame gives Fortran order): the
+    # same bits as from an array.
+    X = np.ascontiguousarray(X, dtype=float)
+    Y = np.ascontiguousarray(y, dtype=float).reshape(len(X), -1)
+    kept = np.isfinite(Y).any(axis=1)
+    X, Y = measured_field_data(
+        X, Y, estimator.discrepancy_regression, responses, reported
+    )
+    warn_few_distinct_inputs(X, estimator.discrepancy_regression)
+    return X, Y, np.ndim(y), responses, tables, labels[kept]

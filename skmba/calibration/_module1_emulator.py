@@ -34,6 +34,7 @@ from functools import cached_property
 import numpy as np
 from scipy import linalg
 
+from skmba._core.dace import DACECorrelation
 from skmba._core.progress import as_progress, start_reporter
 from skmba._core.regression import regression_basis
 from skmba.gp._estimator import MultiResponseGP, default_kernel
@@ -189,6 +190,39 @@ class Emulator:
             return None
         r = self.Z.shape[1] - X_e.shape[1]
         return self.kernel(np.hstack([X_e, np.zeros((len(X_e), r))]))
+
+    @cached_property
+    def _weights(self):
+        """``C^-T C^-1 (Y_m - H_m beta)`` (N, q): the kriging mean's weights."""
+        residual = self.likelihood.gls.residual
+        return linalg.solve_triangular(self.C, residual, lower=True, trans="T")
+
+    def kriging_mean(self, X_e, thetas):
+        """The kriging mean at ``[X_e, theta]`` per theta (k, n, q), as
+        :meth:`EmulatorConditional.mean` without its triangular solve.
+
+        A DACE correlation is a product over the inputs, so its cross
+        correlation is that of the design variables (n, N) times that of
+        the parameters (k, N), each evaluated with the other columns equal
+        (their factors one): k + n rows instead of k n.
+        """
+        thetas = np.atleast_2d(thetas)
+        k, n = len(thetas), len(X_e)
+        points = np.hstack([np.tile(X_e, (k, 1)), np.repeat(thetas, n, axis=0)])
+        trend = regression_basis(points, self.regression) @ self.likelihood.gls.beta
+        trend = trend.reshape(k, n, -1)
+        if not isinstance(self.kernel, DACECorrelation):
+            cross = self.kernel(points, self.Z) @ self._weights
+            return trend + cross.reshape(k, n, -1)
+        d = X_e.shape[1]
+        on_x, on_theta = self.Z.copy(), self.Z.copy()
+        on_x[:, d:], on_theta[:, :d] = 0.0, 0.0
+        K_x = self.kernel(np.hstack([X_e, np.zeros((n, self.Z.shape[1] - d))]), on_x)
+        K_t = self.kernel(np.hstack([np.zeros((k, d)), thetas]), on_theta)
+        cross = np.stack(
+            [(K_t * w) @ K_x.T for w in self._weights.T], axis=-1
+        )  # (k, n, q)
+        return trend + cross
 
     def conditional(self, X_e, thetas):
         """The emulator given the simulations at ``[X_e, theta]`` per theta.

@@ -38,6 +38,7 @@ import numpy as np
 from skmba._core.linalg import FEWER_FIELD_DATA, FLOAT_BYTES, check_memory, n_workers
 from skmba._core.regression import n_regression_terms
 from skmba._core.warn import warn
+from skmba.calibration._best_fit import best_fit_of
 from skmba.calibration._module1_emulator import Standardizer, fit_emulator
 from skmba.calibration._module2_converged import (
     AUTO_MAX_ENTRIES,
@@ -140,6 +141,7 @@ class ModulesResult:
     module2: HyperposteriorDraws
     module3: Module3Result
     identifiability: object
+    best_fit: object = None  # a BestFitResult with estimand="best_fit"
 
 
 @dataclass(frozen=True)
@@ -214,9 +216,10 @@ def run_modules(
 
     ``readings`` is the field data as a
     :class:`~skmba.calibration._field_replicates.FieldReadings`;
-    ``module2_spec`` is :func:`module2_prior`'s result; ``seeds`` the six
+    ``module2_spec`` is :func:`module2_prior`'s result; ``seeds`` the seven
     seeds of module 1, the prior integral, module 2 (first pass), module 3
-    (first pass), and the second passes of modules 2 and 3. ``warm``, the
+    (first pass), the second passes of modules 2 and 3, and the best fit
+    (with ``estimand="best_fit"``). ``warm``, the
     :class:`WarmStart` of an earlier fit on part of the readings, lends its
     module 1 (emulator and standardisation) and starts modules 2 and 3
     where it ended.
@@ -274,7 +277,10 @@ def run_modules(
         posterior.cov / scale if propagate else None,
         hyperprior,
     )
-    return ModulesResult(inputs, module2, module3, probe)
+    best_fit = None
+    if settings.estimand == "best_fit":
+        best_fit = best_fit_of(inputs, module3, readings, seeds[6])
+    return ModulesResult(inputs, module2, module3, probe, best_fit)
 
 
 def _plug_in(inputs, integrated, ranges, seed, started):
@@ -550,7 +556,13 @@ def fitted_attributes(result):
         "theta_mcse_": _mcse(result.module3.error, len(posterior.mean)),
         "discrepancy_draws_": len(result.module2.components),
         "discrepancy_prior_units_": result.inputs.units,
+        "estimand_": "physical" if result.best_fit is None else "best_fit",
     }
+    if result.best_fit is not None:  # theta's draws are the best fit's
+        best = result.best_fit
+        out["theta_samples_"] = best.posterior.samples
+        out["theta_mean_"], out["theta_cov_"] = best.posterior.mean, best.posterior.cov
+        out["theta_mcse_"] = best.mcse
     if posterior.method == "quadrature":
         out["theta_nodes_"], out["theta_weights_"] = posterior.nodes, posterior.weights
     else:

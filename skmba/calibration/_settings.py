@@ -35,6 +35,7 @@ from skmba._core.validation import (
     Options,
     Real,
 )
+from skmba.calibration._best_fit import ESTIMANDS
 from skmba.calibration._module2_plug_in import DISCREPANCY_OPTIMIZERS
 from skmba.calibration._module2_prior_integral import INTEGRATIONS, MODULE2_VARIANCES
 from skmba.calibration._module3_posterior import SAMPLERS
@@ -73,6 +74,7 @@ PARAMETER_TABLE = {
     "n_restarts_optimizer": [Count(minimum=0)],
     "discrepancy_optimizer": [Options(DISCREPANCY_OPTIMIZERS)],
     "discrepancy_uncertainty": [Options(DISCREPANCY_UNCERTAINTIES)],
+    "estimand": [Options(ESTIMANDS, hint="docs/validity.rst: the best-fit estimand")],
     "discrepancy_prior": "no_validation",  # module2_prior, in fit
     "discrepancy_tol": [
         Options(("auto",)),
@@ -159,6 +161,8 @@ class CalibrationSettings:
         Monte Carlo tolerance of the integral over module 2's
         hyperparameters, in posterior sds of theta; None: module 2's 16
         draws; "auto": 0.05 where it applies, else 16 draws.
+    estimand : {"physical", "best_fit"}
+        What theta's posterior is of (:mod:`~skmba.calibration._best_fit`).
     n_jobs : int or None
     bin_width : float, ndarray or None
         As given; :func:`~skmba.calibration._field_replicates.check_bin_width`
@@ -173,6 +177,7 @@ class CalibrationSettings:
     discrepancy_uncertainty: str
     discrepancy_prior: dict | None
     discrepancy_tol: str | float | None
+    estimand: str
     n_jobs: int | None
     bin_width: object
     emulator: EmulatorSettings
@@ -191,6 +196,7 @@ class CalibrationSettings:
             discrepancy_uncertainty=p["discrepancy_uncertainty"],
             discrepancy_prior=p["discrepancy_prior"],
             discrepancy_tol=p["discrepancy_tol"],
+            estimand=p["estimand"],
             n_jobs=p["n_jobs"],
             bin_width=p["bin_width"],
             emulator=EmulatorSettings(

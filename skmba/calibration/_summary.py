@@ -170,6 +170,14 @@ QUADRATURE_NOTE = (
     "a random order, stored as one pseudo-chain. They are not a Markov "
     "chain: R-hat and ESS do not apply."
 )
+#: The same for the best-fit estimand's draws.
+BEST_FIT_NOTE = (
+    "The best fit: independent joint draws of reality at the field inputs, "
+    "each projected on the model by least squares (estimand='best_fit'), in "
+    "a random order, stored as one pseudo-chain; module 3's posterior of the "
+    "physical parameter is the calibrator's theta_chains_ or theta_nodes_. "
+    "Not a Markov chain: R-hat and ESS do not apply."
+)
 
 
 class CalibrationSummaryMixin:
@@ -221,7 +229,8 @@ class CalibrationSummaryMixin:
             ``mcse_sd``, ``mcse_2.5%``, ``mcse_97.5%``: ``theta_mcse_``, NaN
             unless ``discrepancy_tol`` is set), ``prior_mean``, ``prior_sd``,
             ``sd_ratio`` (posterior over prior sd), ``r_hat``, ``ess_bulk`` (NaN with
-            quadrature) and ``identifiability`` when the calibrator has it.
+            quadrature and for the best fit, whose draws are independent) and
+            ``identifiability`` (of the physical parameter, module 3's).
             ``"text"``: the same on one line, for logs.
 
         Returns
@@ -246,6 +255,7 @@ class CalibrationSummaryMixin:
         with np.errstate(divide="ignore", invalid="ignore"):
             ratio = sd / prior_sd
         nan = np.full(r, np.nan)
+        chains = getattr(self, "estimand_", "physical") == "physical"
         columns = {
             "mean": np.asarray(self.theta_mean_, dtype=float),
             "sd": sd,
@@ -255,8 +265,10 @@ class CalibrationSummaryMixin:
             "prior_mean": self.prior_.mean(),
             "prior_sd": prior_sd,
             "sd_ratio": ratio,
-            "r_hat": np.asarray(getattr(self, "rhat_", nan), dtype=float),
-            "ess_bulk": np.asarray(getattr(self, "ess_", nan), dtype=float),
+            "r_hat": np.asarray(getattr(self, "rhat_", nan) if chains else nan, float),
+            "ess_bulk": np.asarray(
+                getattr(self, "ess_", nan) if chains else nan, float
+            ),
             "identifiability": np.asarray(self.identifiability_, dtype=float),
         }
         return columns
@@ -390,6 +402,8 @@ class CalibrationSummaryMixin:
             text += f", identifiability {columns['identifiability'][j]:.3g}"
             parts.append(text)
         method = "MCMC" if hasattr(self, "theta_chains_") else "quadrature"
+        if getattr(self, "estimand_", "physical") == "best_fit":
+            method = f"best fit, reality's posterior by {method}"
         return f"ModularBayesCalibrator ({method}): " + "; ".join(parts)
 
     def _data_names(self, attribute, prefix, n):
@@ -404,7 +418,8 @@ class CalibrationSummaryMixin:
         arviz = _import_arviz()
         rng = np.random.default_rng(random_state)
         names = list(self.parameter_names_)
-        if hasattr(self, "theta_chains_"):
+        best_fit = getattr(self, "estimand_", "physical") == "best_fit"
+        if hasattr(self, "theta_chains_") and not best_fit:
             chains = np.asarray(self.theta_chains_, dtype=float)
             stats = {
                 "lp": np.asarray(self.theta_log_posterior_, dtype=float),
@@ -419,6 +434,8 @@ class CalibrationSummaryMixin:
             chains = np.asarray(self.theta_samples_, dtype=float)[order][np.newaxis]
             stats = None
             attrs = {"sampler": "quadrature (skmba)", "note": QUADRATURE_NOTE}
+            if best_fit:
+                attrs = {"sampler": "best fit (skmba)", "note": BEST_FIT_NOTE}
         mcse = self._mcse(len(names))
         if not np.all(np.isnan(mcse)):
             # ArviZ's attrs hold scalars: one per parameter and summary.
