@@ -487,6 +487,12 @@ class PreposteriorDesigner(BaseEstimator):
         params = {**template.get_params(deep=False), "n_jobs": self.n_jobs}
         params.update(prior=None, simulator=None)
         validate_parameter_table(CALIBRATION_TABLE, params, type(template).__name__)
+        if params["estimand"] != "physical":
+            raise ValueError(
+                f"calibrator has estimand={params['estimand']!r}: the designer "
+                "ranks sensors by the posterior variance of the physical "
+                'parameters only. Pass a calibrator with estimand="physical".'
+            )
         return CalibrationSettings.from_params(params)
 
     def _set_fitted(

@@ -425,6 +425,11 @@ def test_verbose_reports_progress(small, capsys):
             TypeError,
             "no 'roughness' hyperparameter",
         ),
+        (
+            {"calibrator": ModularBayesCalibrator(estimand="best_fit")},
+            ValueError,
+            "calibrator has estimand='best_fit'.*estimand=\"physical\"",
+        ),
     ],
 )
 def test_bad_input_names_the_argument(small, params, error, match):
