@@ -23,6 +23,14 @@ def test_quick_start_runs():
     assert 0.05e3 < sd < 0.5e3 and abs(cal.theta_mean_[0] - 70e3) > 5 * sd
     assert 0.05 < cal.identifiability_[0] < 0.25  # "about 0.13", below 1/3
     assert namespace["std"].shape == (3, 2)
+    # The best fit: E_eff of the beam (the fixed-support model's E that
+    # reproduces it), inside its interval, 67.863 GPa with sd 0.010 GPa.
+    data, best = namespace["data"], namespace["best"]
+    b = data.reality
+    e_eff = b.E / (1 + 3 * b.E * b.I / (b.spring_stiffness * b.length))
+    low, high = np.quantile(best.theta_samples_[:, 0], [0.025, 0.975])
+    assert low < e_eff < high and abs(best.theta_mean_[0] / 67.863e3 - 1) < 1e-4
+    assert 0.005e3 < best.theta_cov_[0, 0] ** 0.5 < 0.02e3
     # the kernel search on raw inputs, scaled in the pipeline
     search = namespace["search"]
     assert search.best_params_ == {"multiresponsegp__kernel": None}

@@ -246,6 +246,7 @@ def warn_if_confounded(values, names):
         "much) more than the data, and misses the true value when the model "
         "error has that shape, whatever its size. To identify it, measure "
         "other responses (PreposteriorDesigner ranks them), add prior "
-        "information on it, or constrain the discrepancy.",
+        "information on it, or constrain the discrepancy; or ask for what "
+        "the data do tell, the model's best fit (estimand='best_fit').",
         NonIdentifiabilityWarning,
     )
