@@ -87,7 +87,7 @@ def _case(name, seed):
     return registry()[name].build(seed)
 
 
-def _replicate(name, seed, physical):
+def replicate(name, seed, physical):
     """One seed: a dict of per-parameter arrays."""
     case = _case(name, seed)
     with threadpoolctl.threadpool_limits(1):
@@ -125,7 +125,7 @@ def main(argv=None):
     for name in args.cases.split(","):
         started = time.perf_counter()
         out = Parallel(n_jobs=args.n_jobs)(
-            delayed(_replicate)(name, s, args.physical) for s in range(args.n_seeds)
+            delayed(replicate)(name, s, args.physical) for s in range(args.n_seeds)
         )
         table = {k: np.array([o[k] for o in out]) for k in out[0]}
         n = len(out)
