@@ -11,9 +11,9 @@ file                               holds
 ``_estimator.py``                  :class:`ModularBayesCalibrator`
 ``_settings.py``                   its parameter table and the frozen
                                    settings built from ``get_params()``
-``_fit_setup.py``                  what ``fit`` settles first: the size
-                                   warning, module 2's prior, the
-                                   simulations
+``_fit_setup.py``                  what ``fit`` settles first: the field
+                                   data checked, the size warning, module
+                                   2's prior, the simulations
 ``_pipeline.py``                   modules 1-3 run in order (and again,
                                    warm, by ``partial_fit``)
 ``_field_data.py``                 checks of the field data, alone and
@@ -42,6 +42,8 @@ file                               holds
 ``_module3_posterior.py``          the posterior of theta (``sampler``)
 ``_module3_identifiability.py``    ``identifiability_`` and its warning
 ``_module4_prediction.py``         module 4: the predictions
+``_best_fit.py``                   ``estimand="best_fit"``: reality's
+                                   posterior projected on the model
 ``_summary.py``                    ``summary`` and ``to_inference_data``
 ``_sensitivity.py``                ``prior_sensitivity``: refits under a
                                    stated class of discrepancy priors
