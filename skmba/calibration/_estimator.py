@@ -188,7 +188,7 @@ class ModularBayesCalibrator(
         theta that brings the model closest to reality, in least squares
         over the field inputs (each response in its simulations' spread),
         within the simulated range: reality's posterior projected on the
-        model (User Guide, "The best-fit estimand"); no confounding warning.
+        model (User Guide, "Which estimand?"); no confounding warning.
     emulator_alpha : float, default=1e-8
         Nugget of the emulator's correlation matrix at the simulations (not
         at the field inputs, where the model is the simulator's output).
@@ -502,7 +502,7 @@ class ModularBayesCalibrator(
             raise
         self._readings_log = (X, y)
         self._set_fitted(**fitted, continued=warm is not None)
-        if self.estimand == "physical":  # the best fit is what the data tell
+        if self.estimand_ == "physical":  # the best fit is what the data tell
             warn_if_confounded(self.identifiability_, self.parameter_names_)
         return self
 

@@ -108,6 +108,32 @@ def test_summary_history_and_errors_are_the_best_fits(fits):
     assert cal.theta_samples_.shape == (N_BEST_FIT_DRAWS, 1)
 
 
+def test_partial_fit_records_the_best_fit(beam):
+    cal = ModularBayesCalibrator(
+        prior=beam.prior,
+        estimand="best_fit",
+        discrepancy_uncertainty="plug-in",
+        random_state=0,
+    )
+    halves = np.array_split(np.arange(len(beam.X_obs)), 2)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        cal.partial_fit(
+            beam.X_obs[halves[0]],
+            beam.y_obs[halves[0]],
+            X_sim=beam.X_sim,
+            theta_sim=beam.theta_sim,
+            y_sim=beam.y_sim,
+        )
+        first_sd = np.sqrt(cal.theta_cov_[0, 0])
+        cal.partial_fit(beam.X_obs[halves[1]], beam.y_obs[halves[1]])
+    history = cal.theta_history_
+    assert list(history["n_readings"]) == [len(halves[0]), len(beam.X_obs)]
+    assert history["theta0_mean"].iloc[-1] == pytest.approx(cal.theta_mean_[0])
+    assert history["theta0_sd"].iloc[0] == pytest.approx(first_sd)
+    assert cal.estimand_ == "best_fit"
+
+
 def test_same_seed_same_best_fit(beam, fits):
     cal, _ = fits["best_fit"]
     again, _ = _fit(beam, estimand="best_fit")
