@@ -299,6 +299,55 @@ def case_freq(seed, *, amplitude=FREQ_DISCREPANCY, snr_db=SNR_DB):
     )
 
 
+#: freq with an offset: theta* = (3.1, 0.2), the offset uniform on
+#: [-0.5, 0.5]. A discrepancy with a constant mean (the default regression)
+#: absorbs any offset, so the offset is confounded and the frequency is not:
+#: a two-parameter design where only one parameter should be flagged.
+OFFSET_THETA_TRUE = np.array([3.1, 0.2])
+OFFSET_BOUNDS = np.array([[2.0, 4.0], [-0.5, 0.5]])
+
+
+def offset_model(X, theta):
+    """The frequency model plus ``theta[:, 1]`` (row by row), shape (n, 1)."""
+    t = np.asarray(theta, dtype=float)
+    return frequency_model(X, t[:, :1]) + t[:, 1:2]
+
+
+class _OffsetReality:
+    """The offset model at ``theta`` plus ``amplitude x^2``."""
+
+    def __init__(self, theta, amplitude):
+        self.theta, self.amplitude = np.asarray(theta, dtype=float), float(amplitude)
+
+    def __call__(self, X):
+        X = np.asarray(X, dtype=float)
+        out = offset_model(X, np.tile(self.theta, (len(X), 1)))
+        return out + self.amplitude * X[:, :1] ** 2
+
+
+def case_freq_offset(seed, *, amplitude=FREQ_DISCREPANCY, snr_db=SNR_DB):
+    """freq + offset: y = sin(2 pi t1 x) + 0.5 x + t2, theta* = (3.1, 0.2),
+    discrepancy ``amplitude`` x^2, freq's design and sizes."""
+    n_sim, n_obs = FREQ_SIZES
+    rng = _rng(seed, 0)
+    design = _lhs(n_sim, np.vstack([UNIT_X_BOUNDS, OFFSET_BOUNDS]), rng)
+    X_sim, theta_sim = design[:, :1], design[:, 1:]
+    X = _lhs(n_obs, UNIT_X_BOUNDS, rng)
+    reality = _OffsetReality(OFFSET_THETA_TRUE, amplitude)
+    y, sd = _observe(reality, X, seed, snr_db)
+    return Case(
+        X,
+        y,
+        X_sim,
+        theta_sim,
+        offset_model(X_sim, theta_sim),
+        _uniform_prior(OFFSET_BOUNDS),
+        OFFSET_THETA_TRUE.copy(),
+        reality,
+        sd,
+    )
+
+
 CASES = {
     "a1": CaseSpec(
         case_a1,

@@ -13,7 +13,10 @@ parameters the warning names and ``identifiability_``:
   with 0.1 x^2, at 10, 30 and 50 dB: it should not warn;
 - ``a1``, ``b1``, ``c1``, ``c3`` (E confounded with a discrepancy shaped
   like its effect) and ``a2``, ``b2`` (both parameters), at 30 dB: it
-  should warn, naming those parameters.
+  should warn, naming those parameters;
+- ``freq + offset`` (freq's frequency and an additive offset, which the
+  discrepancy's constant mean absorbs), with no discrepancy and with
+  0.1 x^2, at 30 dB: it should warn for the offset only.
 
 The warning rate is printed with its Wilson 95 % interval. ``--stability
 N`` also refits seed 0's data of ``freq`` (no discrepancy, 50 dB) and of
@@ -41,7 +44,7 @@ from joblib import Parallel, delayed
 
 from skmba import ModularBayesCalibrator
 from skmba.exceptions import NonIdentifiabilityWarning
-from validation.cases import CASES, case_freq
+from validation.cases import CASES, case_freq, case_freq_offset
 from validation.statistics import wilson_interval
 
 #: (label, builder, indices of the parameters the warning should name).
@@ -58,6 +61,11 @@ VARIANTS = [
     *[
         (case, CASES[case].build, tuple(range(len(CASES[case].parameter_names))))
         for case in ("a1", "b1", "c1", "c3", "a2", "b2")
+    ],
+    # Two parameters, one confounded: the offset, not the frequency.
+    *[
+        (f"freq + offset, {name}", partial(case_freq_offset, amplitude=a), (1,))
+        for name, a in (("no discrepancy", 0.0), ("0.1 x^2", 0.1))
     ],
 ]
 #: Seed-0 data refitted with other calibrator seeds (``--stability``).
