@@ -118,6 +118,33 @@ fig.set_size_inches(6.4, 4.0)
 plt.show()
 
 # %%
+# The best fit: what these data do tell
+# -------------------------------------
+# E* is out of reach of these two responses, but the modulus that brings
+# the fixed-support model closest to the real beam is not: it is the
+# effective modulus, and ``estimand="best_fit"`` reports it. The calibrator
+# reads it from the posterior of the real beam's responses (module 4, the
+# same as above), projecting each joint draw on the model by least squares
+# (User Guide, "Which estimand?"). Its interval covers the effective
+# modulus, about ten times narrower than the interval of E*, and no
+# confounding warning is raised: the best fit is what the data determine.
+# (On 50 replications of this beam at 30 dB noise it covered 47 times:
+# :ref:`validity-best-fit`.)
+
+best = ModularBayesCalibrator(prior=data.prior, estimand="best_fit", random_state=0)
+best.fit(
+    data.X_obs,
+    data.y_obs,
+    X_sim=data.X_sim,
+    theta_sim=data.theta_sim,
+    y_sim=data.y_sim,
+)
+low_b, high_b = np.quantile(best.theta_samples_[:, 0], [0.025, 0.975])
+print(f"best fit: {best.theta_mean_[0]:.0f} ± {np.sqrt(best.theta_cov_[0, 0]):.0f} MPa")
+print(f"95 % interval: [{low_b:.0f}, {high_b:.0f}] MPa")
+print(f"effective modulus: {E_effective:.0f} MPa")
+
+# %%
 # Model, discrepancy and calibrated prediction
 # --------------------------------------------
 # Module 4 averages the model and the discrepancy over the posterior of E
