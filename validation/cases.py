@@ -264,38 +264,47 @@ def frequency_model(X, theta):
 
 
 class _FrequencyReality:
-    """The frequency model at ``theta`` plus the discrepancy ``amplitude x^2``."""
+    """``model`` (the frequency model by default) at ``theta`` plus the
+    discrepancy ``amplitude x^2``."""
 
-    def __init__(self, theta, amplitude=FREQ_DISCREPANCY):
+    def __init__(self, theta, amplitude=FREQ_DISCREPANCY, model=None):
         self.theta = np.asarray(theta, dtype=float)
         self.amplitude = float(amplitude)
+        self.model = frequency_model if model is None else model
 
     def __call__(self, X):
         X = np.asarray(X, dtype=float)
-        out = frequency_model(X, np.tile(self.theta, (len(X), 1)))
+        out = self.model(X, np.tile(self.theta, (len(X), 1)))
         return out + self.amplitude * X[:, :1] ** 2
 
 
-def case_freq(seed, *, amplitude=FREQ_DISCREPANCY, snr_db=SNR_DB):
-    """freq: y = sin(2 pi theta x) + 0.5 x, theta* = 3.1, discrepancy 0.1 x^2
-    (``amplitude`` x^2), noise at ``snr_db``."""
+def _frequency_case(seed, model, bounds, theta_true, amplitude, snr_db):
+    """freq's design and sizes for ``model`` with parameters in ``bounds``."""
     n_sim, n_obs = FREQ_SIZES
     rng = _rng(seed, 0)
-    design = _lhs(n_sim, np.vstack([UNIT_X_BOUNDS, FREQ_BOUNDS]), rng)
+    design = _lhs(n_sim, np.vstack([UNIT_X_BOUNDS, bounds]), rng)
     X_sim, theta_sim = design[:, :1], design[:, 1:]
     X = _lhs(n_obs, UNIT_X_BOUNDS, rng)
-    reality = _FrequencyReality(FREQ_THETA_TRUE, amplitude)
+    reality = _FrequencyReality(theta_true, amplitude, model)
     y, sd = _observe(reality, X, seed, snr_db)
     return Case(
         X,
         y,
         X_sim,
         theta_sim,
-        frequency_model(X_sim, theta_sim),
-        _uniform_prior(FREQ_BOUNDS),
-        FREQ_THETA_TRUE.copy(),
+        model(X_sim, theta_sim),
+        _uniform_prior(bounds),
+        theta_true.copy(),
         reality,
         sd,
+    )
+
+
+def case_freq(seed, *, amplitude=FREQ_DISCREPANCY, snr_db=SNR_DB):
+    """freq: y = sin(2 pi theta x) + 0.5 x, theta* = 3.1, discrepancy 0.1 x^2
+    (``amplitude`` x^2), noise at ``snr_db``."""
+    return _frequency_case(
+        seed, frequency_model, FREQ_BOUNDS, FREQ_THETA_TRUE, amplitude, snr_db
     )
 
 
@@ -313,38 +322,11 @@ def offset_model(X, theta):
     return frequency_model(X, t[:, :1]) + t[:, 1:2]
 
 
-class _OffsetReality:
-    """The offset model at ``theta`` plus ``amplitude x^2``."""
-
-    def __init__(self, theta, amplitude):
-        self.theta, self.amplitude = np.asarray(theta, dtype=float), float(amplitude)
-
-    def __call__(self, X):
-        X = np.asarray(X, dtype=float)
-        out = offset_model(X, np.tile(self.theta, (len(X), 1)))
-        return out + self.amplitude * X[:, :1] ** 2
-
-
 def case_freq_offset(seed, *, amplitude=FREQ_DISCREPANCY, snr_db=SNR_DB):
     """freq + offset: y = sin(2 pi t1 x) + 0.5 x + t2, theta* = (3.1, 0.2),
     discrepancy ``amplitude`` x^2, freq's design and sizes."""
-    n_sim, n_obs = FREQ_SIZES
-    rng = _rng(seed, 0)
-    design = _lhs(n_sim, np.vstack([UNIT_X_BOUNDS, OFFSET_BOUNDS]), rng)
-    X_sim, theta_sim = design[:, :1], design[:, 1:]
-    X = _lhs(n_obs, UNIT_X_BOUNDS, rng)
-    reality = _OffsetReality(OFFSET_THETA_TRUE, amplitude)
-    y, sd = _observe(reality, X, seed, snr_db)
-    return Case(
-        X,
-        y,
-        X_sim,
-        theta_sim,
-        offset_model(X_sim, theta_sim),
-        _uniform_prior(OFFSET_BOUNDS),
-        OFFSET_THETA_TRUE.copy(),
-        reality,
-        sd,
+    return _frequency_case(
+        seed, offset_model, OFFSET_BOUNDS, OFFSET_THETA_TRUE, amplitude, snr_db
     )
 
 
