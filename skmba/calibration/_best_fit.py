@@ -289,13 +289,10 @@ class BestFitResult:
         Its draws, mean and covariance (method ``"best_fit"``).
     mcse : ndarray of shape (4, r)
         Monte Carlo errors of the mean, sd, 2.5 % and 97.5 % quantiles.
-    at_bound : ndarray of shape (r,)
-        The share of draws at an end of the simulated range.
     """
 
     posterior: PosteriorResult
     mcse: np.ndarray
-    at_bound: np.ndarray
 
 
 def best_fit_of(inputs, module3, readings, seed):
@@ -353,5 +350,4 @@ def best_fit_of(inputs, module3, readings, seed):
     return BestFitResult(
         PosteriorResult.from_draws("best_fit", samples),
         best.mcse * np.abs(scaler.theta_scale),
-        best.at_bound,
     )

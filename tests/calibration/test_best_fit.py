@@ -164,13 +164,10 @@ def test_kriging_mean_is_the_conditional_mean(fits):
     thetas = np.array([[-0.4], [0.2], [1.1]])
     fast = modules.emulator.kriging_mean(Xs, thetas)
     dense = modules.emulator.conditional(Xs, thetas).mean()
-    # The two orders of the triangular solves round differently, by up to
-    # the correlation's condition number (its nugget 1e-8: about 1e8) times
-    # the machine epsilon: 1e-8 of the standardised responses.
-    C = modules.emulator.C
-    kappa = np.linalg.cond(C @ C.T)
-    assert kappa < 1e10
-    np.testing.assert_allclose(fast, dense, rtol=0, atol=kappa * 1e-16 * 10)
+    # The two orders of the triangular solves round differently: measured
+    # 1e-10 of the standardised responses here (the correlation's condition
+    # number is 3.9e9, a worst case of 9e-7); 1e-8 leaves two decades.
+    np.testing.assert_allclose(fast, dense, rtol=0, atol=1e-8)
 
 
 def testreality_draws_have_module_4_moments(fits):
