@@ -194,15 +194,10 @@ def identifiability(model, theta, posterior_cov, hyperprior):
     -------
     Identifiability
     """
-    emulator, X_e, q, n = model.emulator, model.X_e, model.q, model.n
-    r = theta.size
-    steps = np.eye(r) * _STEP
-    thetas = np.vstack([theta + steps, theta - steps, theta[None, :]])
-    cond = emulator.conditional(X_e, thetas)
-    means = cond.mean()  # (2r + 1, n, q)
-    J = ((means[:r] - means[r : 2 * r]) / (2 * _STEP)).transpose(2, 1, 0)
-    J = J.reshape(q * n, r)  # response-slowest, as vec(Y)
-    T = cond.correlation()[-1]
+    X_e, q, n = model.X_e, model.q, model.n
+    J, T = sensitivities(model.emulator, X_e, theta[None, :])
+    J = J[0].transpose(1, 0, 2).reshape(q * n, theta.size)  # response-slowest, vec(Y)
+    T = T[0]
     V0 = np.kron(model.sigma2_m, T) + noise_covariance(model.noise, n, model.replicates)
     sd = np.sqrt(np.clip(np.diag(model.sigma2_d), 1e-300, None))
     corr = model.sigma2_d / np.outer(sd, sd)
@@ -217,13 +212,61 @@ def identifiability(model, theta, posterior_cov, hyperprior):
         observed_rows(X_d, obs),
     )
     information = data_information(*args[:2])
-    probe_sd = np.sqrt(_marginal_variances(probe_information(*args)))
+    probe_sd = probe_sds(*args)
     if posterior_cov is not None:
         return Identifiability(data_share(information, posterior_cov), probe_sd)
-    # the plug-in: the probe's counterfactual
+    return Identifiability(probe_share(information, probe_sd), probe_sd)
+
+
+def probe_share(information, probe_sd):
+    """The plug-in's ``identifiability_``: the linearised sd without a
+    discrepancy (from the data's ``information``) over ``probe_sd``, the
+    one with a discrepancy of plausible size; 0 where that is infinite."""
     with np.errstate(invalid="ignore", divide="ignore"):
         ratio = np.sqrt(_marginal_variances(information)) / probe_sd
-    return Identifiability(np.where(np.isfinite(ratio), ratio, 0.0), probe_sd)
+    return np.where(np.isfinite(ratio), ratio, 0.0)
+
+
+def probe_sds(J, V0, K_d, X_d):
+    """``probe_sd``: the linearised posterior sd of each parameter with the
+    discrepancy ``K_d`` of plausible size (``inf`` where it can explain all
+    of the parameter's effect)."""
+    return np.sqrt(_marginal_variances(probe_information(J, V0, K_d, X_d)))
+
+
+def sensitivities(emulator, X_e, thetas):
+    """The emulator's mean sensitivities and correlation at some thetas.
+
+    Central differences of step :data:`_STEP` (standardised theta), all
+    thetas in one conditional of the emulator.
+
+    Parameters
+    ----------
+    thetas : ndarray of shape (m, r)
+
+    Returns
+    -------
+    J : ndarray of shape (m, n, q, r)
+        ``d m(X_e, theta) / d theta`` at each theta.
+    T : ndarray of shape (m, n, n)
+        The emulator's correlation at ``X_e`` given the simulations.
+    """
+    m, r = thetas.shape
+    steps = np.eye(r) * _STEP
+    points = np.concatenate(
+        [
+            (thetas[:, None, :] + steps).reshape(m * r, r),
+            (thetas[:, None, :] - steps).reshape(m * r, r),
+            thetas,
+        ]
+    )
+    cond = emulator.conditional(X_e, points)
+    means = cond.mean()  # (2 m r + m, n, q)
+    n, q = means.shape[1:]
+    plus = means[: m * r].reshape(m, r, n, q)
+    minus = means[m * r : 2 * m * r].reshape(m, r, n, q)
+    J = ((plus - minus) / (2 * _STEP)).transpose(0, 2, 3, 1)
+    return J, cond.correlation()[2 * m * r :]
 
 
 def warn_if_confounded(values, names):
