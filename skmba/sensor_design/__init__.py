@@ -11,6 +11,7 @@ file                           holds
 ``_subset_likelihood.py``      module 3 for many subsets and thetas
 ``_subset_tree.py``            module 3 along a prefix tree of subsets
 ``_posterior_moments.py``      posterior moments by importance quadrature
+``_identifiability.py``        the calibrator's warning, predicted
 ``_subset_search.py``          exhaustive, greedy and genetic searches
 =============================  ============================================
 

@@ -236,6 +236,13 @@ class PreposteriorDesigner(BaseEstimator):
         Root mean square, over the replicates, of the posterior mean minus the
         ``theta`` that generated the data: the expected identification error
         (bias and spread) of each subset, in user units.
+    identifiability_ : ndarray of shape (n_subsets, r)
+        The calibrator's ``identifiability_`` per subset: the median over
+        the replicates of its rule applied to each replicate's data.
+    warning_rate_ : ndarray of shape (n_subsets, r)
+        Share of the replicates on which the calibrator's
+        :class:`~skmba.exceptions.NonIdentifiabilityWarning` would name
+        each parameter (``identifiability_`` below 1/3 there).
     theta_draws_ : ndarray of shape (n_mc, r)
         The replicates' ``theta``.
     X_design_ : ndarray of shape (n, d)
@@ -531,10 +538,12 @@ class PreposteriorDesigner(BaseEstimator):
             One row per subset of ``subsets_``, indexed by rank (1 = best;
             a first field ``rank`` without pandas), with the columns
             ``subset`` (the response names joined by ", "),
-            ``n_responses``, ``score`` (``scores_``) and ``mcse``
-            (``scores_mcse_``). The Monte Carlo standard error is the
-            jackknife estimate over the ``n_mc`` replicates: with ``s_(i)``
-            the criterion of the mean posterior covariance without
+            ``n_responses``, ``score`` (``scores_``), ``mcse``
+            (``scores_mcse_``) and, per parameter, ``warning_rate[<name>]``
+            (``warning_rate_``; names from the prior, else ``theta0``,
+            ...). The Monte Carlo standard error is the jackknife
+            estimate over the ``n_mc`` replicates: with ``s_(i)`` the
+            criterion of the mean posterior covariance without
             replicate ``i``, ``sqrt((n_mc - 1) / n_mc * sum_i (s_(i) -
             mean s_(.))**2)``; for ``criterion="trace"`` it is the standard
             error of the mean of the per-replicate criteria. Two subsets
@@ -553,7 +562,16 @@ class PreposteriorDesigner(BaseEstimator):
                 f"response_names has {len(names)} names but the designer scored "
                 f"{q} responses; give one name per response."
             )
-        return design_table(names, self.subsets_, self.scores_, self.scores_mcse_)
+        r = self.warning_rate_.shape[1]
+        parameters = self.prior_.names or [f"theta{j}" for j in range(r)]
+        return design_table(
+            names,
+            self.subsets_,
+            self.scores_,
+            self.scores_mcse_,
+            self.warning_rate_,
+            parameters,
+        )
 
     def score_subset(self, subset):
         """The criterion of a scored subset (lower is better).

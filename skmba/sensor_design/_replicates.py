@@ -7,7 +7,7 @@ and the noise, and module 2 on them, with the calibrator's two treatments:
 module 2's estimate as one draw of weight one) and ``"propagate"`` (data
 from the calibrator's default hyperprior; module 2's draws in two passes,
 :func:`~skmba.calibration._module2_posterior.propagated_module2`, as the
-calibrator does). :func:`subset_likelihoods` and :func:`mixed` give a
+calibrator does). :func:`subset_draws`, :func:`likelihoods` and :func:`mixed` give a
 replicate's module-3 likelihood for a response subset, which
 :mod:`skmba.sensor_design._scoring` turns into posterior moments.
 :class:`MonteCarloContext` is what every task needs.
@@ -63,6 +63,7 @@ class MonteCarloContext:
     nodes: np.ndarray  # the prior's integration rule (user units)
     weights: np.ndarray
     pieces: object  # the design's emulator pieces at the nodes
+    probe_prior: object  # the plug-in calibrator's probe (a Hyperprior)
 
     @classmethod
     def build(cls, settings, emulator, scaler, X_design, prior, priors, seeds, **kw):
@@ -111,6 +112,7 @@ class MonteCarloContext:
             nodes=nodes,
             weights=weights,
             pieces=pieces,
+            probe_prior=Hyperprior(units=units),
             **kw,
         )
 
@@ -376,19 +378,14 @@ def _embedded(sigma2_d, noise, subset, q):
     return full, noise_full
 
 
-def subset_likelihoods(ctx, rep, subset):
-    """The module-3 likelihoods of a subset and their log weights.
-
-    One likelihood with module 2 plugged in, or one per hyperposterior draw
-    (propagate), mixed with the draws' importance weights.
-    """
+def subset_draws(ctx, rep, subset):
+    """Module 2's draws for a subset: the replicate's (``fast``: fitted on
+    all responses in phase 1) or fitted on the subset's responses."""
     if ctx.fast:
-        draws = rep.draws
-    elif ctx.hyperprior is not None:
-        draws = _fit_module2_draws(ctx, rep, subset)
-    else:
-        draws = HyperposteriorDraws.plug_in(_fit_module2(ctx, rep, subset))
-    return likelihoods(ctx, rep, list(subset), draws)
+        return rep.draws
+    if ctx.hyperprior is not None:
+        return _fit_module2_draws(ctx, rep, subset)
+    return HyperposteriorDraws.plug_in(_fit_module2(ctx, rep, subset))
 
 
 def likelihoods(ctx, rep, idx, draws):

@@ -41,8 +41,12 @@ from skmba._core.threads import BlasTask
 from skmba._core.validation import int_seed
 from skmba._core.warn import warn
 from skmba.calibration._summary import table
+from skmba.sensor_design._identifiability import (
+    identifiability_summary,
+    replicate_identifiability,
+)
 from skmba.sensor_design._posterior_moments import posterior_moments
-from skmba.sensor_design._replicates import mask, mixed, subset_likelihoods
+from skmba.sensor_design._replicates import likelihoods, mask, mixed, subset_draws
 from skmba.sensor_design._subset_tree import (
     FieldTerms,
     path_bytes,
@@ -112,7 +116,9 @@ TREE_BYTES = 64 * 2**20
 
 
 def posterior_block(ctx, replicates, subsets):
-    """Step 2b-2c for some replicates and subsets: posterior moments.
+    """Step 2b-2c for some replicates and subsets: posterior moments, and
+    the calibrator's ``identifiability_`` on each
+    (:func:`~skmba.sensor_design._identifiability.replicate_identifiability`).
 
     With ``fast`` (module 2 fitted once per replicate), the likelihoods at the stage-1
     nodes of every subset come from one prefix tree per block of replicates
@@ -123,15 +129,19 @@ def posterior_block(ctx, replicates, subsets):
     r = ctx.prior.dim
     means = np.empty((len(replicates), len(subsets), r))
     covs = np.empty((len(replicates), len(subsets), r, r))
+    ratios = np.empty((len(replicates), len(subsets), r))
     design = ctx.design
     stage1 = _stage1_log_likelihoods(ctx, replicates, subsets) if ctx.fast else None
     for i, rep in enumerate(replicates):
+        modes = []
         for j, subset in enumerate(subsets):
+            draws = subset_draws(ctx, rep, subset)
+            modes.append(draws.mode)
             cache = {}
 
-            def at(pieces, subset=subset, rep=rep, cache=cache):
+            def at(pieces, subset=subset, rep=rep, draws=draws, cache=cache):
                 if not cache:
-                    cache["mixture"] = subset_likelihoods(ctx, rep, subset)
+                    cache["mixture"] = likelihoods(ctx, rep, list(subset), draws)
                 return mixed(*cache["mixture"], pieces)
 
             def log_likelihood(thetas, at=at):
@@ -147,7 +157,8 @@ def posterior_block(ctx, replicates, subsets):
                 at_nodes,
                 seed=seed,
             )
-    return means, covs
+        ratios[i] = replicate_identifiability(ctx, subsets, modes, means[i], covs[i])
+    return means, covs, ratios
 
 
 #: An exhaustive search expected to take longer than this (in seconds, after
@@ -175,7 +186,8 @@ def subset_moments(
     the expected time of all (a line, and a warning beyond
     ``LONG_SEARCH_SECONDS``). Each (subset, replicate) is computed on
     its own seed, so the tasks do not change the results. Returns
-    ``{subset: (means (n_mc, r), covs (n_mc, r, r))}``.
+    ``{subset: (means (n_mc, r), covs (n_mc, r, r), ratios (n_mc, r))}``
+    (ratios: the calibrator's ``identifiability_``).
     """
     size = max(len(block) for block in blocks)
     # With ``fast``, a task's subsets share one prefix tree: all in one chunk.
@@ -204,10 +216,9 @@ def subset_moments(
     out = {}
     for c, chunk in enumerate(chunks):
         own = parts[c * len(blocks) : (c + 1) * len(blocks)]
-        means = np.concatenate([p[0] for p in own])
-        covs = np.concatenate([p[1] for p in own])
+        means, covs, ratios = (np.concatenate([p[m] for p in own]) for m in range(3))
         for j, s in enumerate(chunk):
-            out[s] = (means[:, j], covs[:, j])
+            out[s] = (means[:, j], covs[:, j], ratios[:, j])
     return {s: out[s] for s in subsets}
 
 
@@ -274,10 +285,12 @@ def jackknife_mcse(covs, score):
     return np.sqrt((n - 1) / n * spread)
 
 
-def design_table(names, subsets, scores, mcse):
+def design_table(names, subsets, scores, mcse, warning_rate, parameters):
     """The scored sensor subsets, best first: one row per subset with the
-    response ``names`` of its members, its size, score and Monte Carlo
-    standard error (see :meth:`skmba.PreposteriorDesigner.summary`)."""
+    response ``names`` of its members, its size, score, Monte Carlo
+    standard error and, per parameter (named by ``parameters``), the share
+    of replicates on which the calibrator's warning would name it (see
+    :meth:`skmba.PreposteriorDesigner.summary`)."""
     order = np.argsort(scores, kind="stable")
     ranked = [subsets[i] for i in order]
     columns = {
@@ -286,6 +299,9 @@ def design_table(names, subsets, scores, mcse):
         "score": np.asarray(scores, dtype=float)[order],
         "mcse": np.asarray(mcse, dtype=float)[order],
     }
+    rates = np.asarray(warning_rate, dtype=float)[order]
+    for j, name in enumerate(parameters):
+        columns[f"warning_rate[{name}]"] = rates[:, j]
     return table("rank", np.arange(1, len(order) + 1), columns)
 
 
@@ -399,8 +415,8 @@ def phase2(ctx, replicates, criterion, search, *, n_jobs, progress, started):
 
 def design_scores(results, replicates, prior_cov, criterion, q):
     """Step 3: the designer's scores from the posterior moments ``results``
-    (``{subset: (means, covs)}`` over the replicates), as a dict of its
-    fitted attributes (names without the trailing underscore)."""
+    (``{subset: (means, covs, ratios)}`` over the replicates), as a dict of
+    its fitted attributes (names without the trailing underscore)."""
 
     def score(cov):
         return criterion_value(cov, prior_cov, criterion)
@@ -417,6 +433,9 @@ def design_scores(results, replicates, prior_cov, criterion, q):
     running = np.cumsum(covs, axis=1) / np.arange(1, n_mc + 1)[:, None, None]
     out["convergence"] = score(running).T
     out["expected_error"] = np.sqrt(np.mean((means - theta_draws[None]) ** 2, axis=1))
+    out["identifiability"], out["warning_rate"] = identifiability_summary(
+        [results[s][2] for s in subsets]
+    )
     out["best_subset"] = subsets[int(np.argmin(out["scores"]))]
     out["support"] = np.zeros(q, dtype=bool)
     out["support"][list(out["best_subset"])] = True

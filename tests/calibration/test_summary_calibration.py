@@ -247,11 +247,20 @@ def test_designer_summary_ranks_the_subsets(designer):
     table = designer.summary()
     assert isinstance(table, pd.DataFrame)
     assert list(table.index) == list(range(1, 8)) and table.index.name == "rank"
-    assert list(table.columns) == ["subset", "n_responses", "score", "mcse"]
+    assert list(table.columns) == [
+        "subset",
+        "n_responses",
+        "score",
+        "mcse",
+        "warning_rate[theta0]",
+    ]
     assert table["score"].is_monotonic_increasing
     order = np.argsort(designer.scores_, kind="stable")
     np.testing.assert_array_equal(table["score"], designer.scores_[order])
     np.testing.assert_array_equal(table["mcse"], designer.scores_mcse_[order])
+    np.testing.assert_array_equal(
+        table["warning_rate[theta0]"], designer.warning_rate_[order, 0]
+    )
     best = ", ".join(f"y{k}" for k in designer.best_subset_)
     assert table["subset"].iloc[0] == best
     assert np.all(designer.scores_mcse_ > 0)
@@ -261,7 +270,14 @@ def test_designer_summary_names_and_no_pandas(designer, no_pandas):
     names = ("tip", "energy", "rotation")
     table = designer.summary(response_names=names)
     assert isinstance(table, np.ndarray)
-    assert table.dtype.names == ("rank", "subset", "n_responses", "score", "mcse")
+    assert table.dtype.names == (
+        "rank",
+        "subset",
+        "n_responses",
+        "score",
+        "mcse",
+        "warning_rate[theta0]",
+    )
     assert "tip, energy, rotation" in list(table["subset"])
     assert list(table["rank"]) == list(range(1, 8))
     with pytest.raises(ValueError, match="one name per response"):

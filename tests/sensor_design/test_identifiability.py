@@ -1,0 +1,179 @@
+"""The designer's prediction of the calibrator's identifiability warning."""
+
+import warnings
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from skmba import ModularBayesCalibrator, PreposteriorDesigner
+from skmba.calibration._module3_identifiability import (
+    data_information,
+    data_share,
+    probe_sds,
+    probe_share,
+    sensitivities,
+)
+from skmba.kernels import Gauss
+from skmba.priors._hyperprior import Hyperprior
+from skmba.sensor_design._identifiability import (
+    identifiability_summary,
+    kronecker_information,
+    replicate_identifiability,
+)
+
+
+def _dense_V0(sigma2_m, noise, T):
+    n = len(T)
+    return np.kron(sigma2_m, T) + np.kron(np.diag(noise), np.eye(n))
+
+
+def test_kronecker_information_equals_the_dense_formula():
+    """Two eigen-decompositions give ``J' V_0^-1 J`` of the dense
+    Cholesky, with a rank-deficient emulator covariance and a smooth
+    correlation whose small eigenvalues round to about zero."""
+    rng = np.random.default_rng(0)
+    n, s, r = 15, 3, 2
+    x = np.sort(rng.uniform(size=n))
+    T = np.exp(-3.0 * (x[:, None] - x[None, :]) ** 2)
+    A = rng.normal(size=(s, 2))
+    sigma2_m = A @ A.T  # rank 2 of 3
+    noise = np.array([0.01, 0.3, 2.0])
+    J = rng.normal(size=(n, s, r))
+    dense = data_information(
+        J.transpose(1, 0, 2).reshape(s * n, r), _dense_V0(sigma2_m, noise, T)
+    )
+    got = kronecker_information(J, sigma2_m, noise, T)
+    np.testing.assert_allclose(got, dense, rtol=1e-9)
+    np.testing.assert_allclose(got, got.T, rtol=1e-12)
+
+
+@pytest.fixture(scope="module")
+def context():
+    """A Monte Carlo context of the two-response cantilever (both
+    treatments share the emulator and design)."""
+    from skmba.calibration._module1_emulator import Standardizer, fit_emulator
+    from skmba.calibration._settings import CalibrationSettings
+    from skmba.datasets import make_cantilever
+    from skmba.priors._theta import check_prior
+    from skmba.sensor_design._inputs import check_design_priors
+    from skmba.sensor_design._replicates import MonteCarloContext
+
+    data = make_cantilever(40, 12, random_state=0)
+    settings = CalibrationSettings.from_params(
+        ModularBayesCalibrator(prior=data.prior).get_params()
+    )
+    scaler = Standardizer.from_simulations(data.X_sim, data.theta_sim, data.y_sim)
+    emulator = fit_emulator(scaler, data.X_sim, data.theta_sim, data.y_sim,
+                            **settings.emulator.kwargs(), random_state=0)  # fmt: skip
+    X_design = np.linspace(2e3, 9e3, 12)[:, None]
+    out = {}
+    for treatment in ("propagate", "plug-in"):
+        if treatment == "propagate":
+            priors = Hyperprior()
+        else:
+            priors = check_design_priors(
+                None, None, "standardised", 1, 2, scaler.y_scale
+            )
+        out[treatment] = MonteCarloContext.build(
+            settings, emulator, scaler, X_design, check_prior(data.prior), priors,
+            (0, 1), fast=True, module2_max_iter=50,
+        )  # fmt: skip
+    return out
+
+
+@pytest.mark.parametrize("treatment", ["propagate", "plug-in"])
+@pytest.mark.parametrize("subset", [(0,), (1,), (0, 1)])
+def test_replicate_identifiability_is_the_calibrators_rule(context, treatment, subset):
+    """The designer's ratio for a subset is the calibrator's formula on the
+    subset's rows, written densely: the data share of the posterior
+    (propagate) or the probe's ratio (plug-in), with module 2's mode on all
+    responses restricted to the subset."""
+    ctx = context[treatment]
+    idx = list(subset)
+    mode = SimpleNamespace(
+        noise=np.array([0.02, 0.05]),
+        sigma2=np.array([[0.3, 0.12], [0.12, 0.2]]),
+        kernel_=Gauss(roughness=2.0),
+    )
+    mean = np.array([69e3])
+    cov = np.array([[1500.0**2]])
+    # Two subsets in one call, each at its own mean.
+    got = replicate_identifiability(
+        ctx,
+        [(0, 1), subset],
+        [mode, mode],
+        np.vstack([mean * 1.1, mean]),
+        np.stack([cov, cov]),
+    )[1]
+
+    J, T = sensitivities(ctx.emulator, ctx.Xs, ctx.std_theta(mean)[None, :])
+    J, T = J[0], T[0]
+    n, s = ctx.n, len(idx)
+    J = J[:, idx].transpose(1, 0, 2).reshape(s * n, 1)
+    V0 = _dense_V0(ctx.emulator.sigma2[np.ix_(idx, idx)], mode.noise[idx], T)
+    info = data_information(J, V0)
+    if treatment == "propagate":
+        scale = ctx.scaler.theta_scale
+        expected = data_share(info, cov / np.outer(scale, scale))
+    else:
+        S = mode.sigma2[np.ix_(idx, idx)]
+        sd = np.sqrt(np.diag(S))
+        big = ctx.probe_prior.sd_quantile(0.95, 2)[idx]
+        K_d = np.kron(S / np.outer(sd, sd) * np.outer(big, big), mode.kernel_(ctx.Xs))
+        X_d = np.kron(np.eye(s), ctx.H_d)
+        expected = probe_share(info, probe_sds(J, V0, K_d, X_d))
+    np.testing.assert_allclose(got, expected, rtol=1e-8)
+    assert 0.0 < got[0] <= 1.0
+
+
+def test_summary_is_the_median_and_the_share_below_the_threshold():
+    ratios = np.array([[[0.1, 0.9], [0.2, 0.8], [0.5, 0.2], [0.6, 0.7]]])  # 1 subset
+    median, rate = identifiability_summary(ratios)
+    np.testing.assert_allclose(median, [[0.35, 0.75]])
+    np.testing.assert_allclose(rate, [[0.5, 0.25]])
+
+
+def _frequency_designer(with_offset, n_mc=10):
+    """freq's model (y = sin(2 pi t x) + 0.5 x), with an additive offset
+    as a second parameter or not, 150 simulations on a Latin hypercube."""
+    rng = np.random.default_rng(0)
+    bounds = [(0.0, 1.0), (2.0, 4.0)] + ([(-0.5, 0.5)] if with_offset else [])
+    lo, hi = np.array(bounds).T
+    Z = lo + (hi - lo) * stats.qmc.LatinHypercube(len(bounds), seed=rng).random(150)
+    y = np.sin(2 * np.pi * Z[:, 1] * Z[:, 0]) + 0.5 * Z[:, 0]
+    if with_offset:
+        y = y + Z[:, 2]
+    prior = [stats.uniform(a, b - a) for a, b in bounds[1:]]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return PreposteriorDesigner(
+            prior,
+            discrepancy_uncertainty="propagate",
+            n_design=30,
+            n_mc=n_mc,
+            random_state=0,
+        ).fit(Z, y)
+
+
+def test_the_designer_names_the_confounded_parameter_only():
+    """A frequency is identified whatever the discrepancy; an additive
+    offset is absorbed by the discrepancy's constant mean. The calibrator
+    names the offset alone (validation.studies.identifiability, 60/60 fits);
+    the designer predicts it: the offset's median identifiability below
+    1/3, the frequency's above, alone and beside the offset."""
+    alone = _frequency_designer(False)
+    both = _frequency_designer(True)
+    assert alone.identifiability_.shape == (1, 1)
+    assert alone.identifiability_[0, 0] > 1 / 3
+    assert alone.warning_rate_[0, 0] < 0.5
+    frequency, offset = both.identifiability_[0]
+    assert frequency > 1 / 3 > offset
+    assert both.warning_rate_[0, 1] > 0.5 > both.warning_rate_[0, 0]
+    # n_mc = 10: rates are multiples of 1/10
+    np.testing.assert_allclose(
+        both.warning_rate_ * 10, np.round(both.warning_rate_ * 10)
+    )
+    table = both.summary()
+    assert list(table.columns)[-2:] == ["warning_rate[theta0]", "warning_rate[theta1]"]
