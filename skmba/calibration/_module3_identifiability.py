@@ -58,7 +58,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import linalg
 
-from skmba._core.linalg import observed_block, observed_rows
+from skmba._core.linalg import observed_block, observed_rows, stacked_whitening
 from skmba._core.regression import regression_basis
 from skmba._core.warn import warn
 from skmba.calibration._field_replicates import noise_covariance
@@ -91,12 +91,13 @@ class Identifiability:
 
 
 def _marginal_variances(info):
-    """Diagonal of ``info^-1``, ``inf`` where ``info`` is singular there."""
-    values, vectors = np.linalg.eigh(0.5 * (info + info.T))
-    tol = 1e-12 * max(values.max(), 1e-300)
+    """Diagonal of ``info^-1``, ``inf`` where ``info`` is singular there
+    (``info`` (r, r) or a stack of them)."""
+    values, vectors = np.linalg.eigh(0.5 * (info + np.swapaxes(info, -1, -2)))
+    tol = 1e-12 * np.maximum(values.max(axis=-1, keepdims=True), 1e-300)
     inv = np.where(values > tol, 1.0 / np.maximum(values, tol), np.inf)
     with np.errstate(invalid="ignore"):
-        out = np.einsum("ij,j,ij->i", vectors, inv, vectors)
+        out = np.einsum("...ij,...j,...ij->...i", vectors, inv, vectors)
     return np.where(np.isnan(out), np.inf, out)
 
 
@@ -169,8 +170,9 @@ def data_share(information, posterior_cov):
     """
     # diag(posterior_cov^-1), inf along a direction the posterior pins down
     precision = _marginal_variances(np.atleast_2d(posterior_cov))
+    diagonal = np.diagonal(np.atleast_2d(information), axis1=-2, axis2=-1)
     with np.errstate(invalid="ignore", divide="ignore"):
-        ratio = np.sqrt(precision / np.diag(np.atleast_2d(information)))
+        ratio = np.sqrt(precision / diagonal)
     return np.where(np.isnan(ratio), 1.0, np.minimum(ratio, 1.0))
 
 
@@ -232,6 +234,20 @@ def probe_sds(J, V0, K_d, X_d):
     discrepancy ``K_d`` of plausible size (``inf`` where it can explain all
     of the parameter's effect)."""
     return np.sqrt(_marginal_variances(probe_information(J, V0, K_d, X_d)))
+
+
+def stacked_probe_sds(J, S, X_d, eigenvalue_floor):
+    """:func:`probe_sds` for a stack: ``S`` (k, m, m) holds ``V_0 + K_d``,
+    ``J`` (k, m, r), ``X_d`` (m, p) or (k, m, p); ``eigenvalue_floor``
+    bounds every ``S``'s smallest eigenvalue from below (the smallest noise
+    variance). One bordered Cholesky whitens all (``stacked_whitening``)."""
+    r = J.shape[-1]
+    X_d = np.broadcast_to(X_d, (len(S), *X_d.shape[-2:]))
+    _, W = stacked_whitening(S, np.concatenate([J, X_d], axis=2), eigenvalue_floor)
+    Jw1 = W[:, :, :r]
+    Q, _ = np.linalg.qr(W[:, :, r:])
+    Jp = Jw1 - Q @ (np.swapaxes(Q, 1, 2) @ Jw1)
+    return np.sqrt(_marginal_variances(np.swapaxes(Jp, 1, 2) @ Jp))
 
 
 def sensitivities(emulator, X_e, thetas):

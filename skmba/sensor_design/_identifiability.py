@@ -37,9 +37,9 @@ from skmba.calibration._module3_identifiability import (
     IDENTIFIABILITY_THRESHOLD,
     PROBE_LEVEL,
     data_share,
-    probe_sds,
     probe_share,
     sensitivities,
+    stacked_probe_sds,
 )
 
 
@@ -48,28 +48,28 @@ def kronecker_information(J, sigma2_m, noise, T):
 
     Parameters
     ----------
-    J : ndarray of shape (n, s, r)
+    J : ndarray of shape (..., n, s, r)
         Sensitivities of the ``s`` responses at the ``n`` field inputs.
-    sigma2_m : ndarray of shape (s, s)
+    sigma2_m : ndarray of shape (..., s, s)
         The emulator's covariance of the responses.
-    noise : ndarray of shape (s,)
+    noise : ndarray of shape (..., s)
         Noise variances (positive).
-    T : ndarray of shape (n, n)
+    T : ndarray of shape (..., n, n)
         The emulator's correlation at the field inputs.
 
     Returns
     -------
-    ndarray of shape (r, r)
+    ndarray of shape (..., r, r)
     """
     root = 1.0 / np.sqrt(np.asarray(noise, dtype=float))
-    d, W = np.linalg.eigh(sigma2_m * np.outer(root, root))
-    e, U = np.linalg.eigh(0.5 * (T + T.T))
+    d, W = np.linalg.eigh(sigma2_m * root[..., :, None] * root[..., None, :])
+    e, U = np.linalg.eigh(0.5 * (T + np.swapaxes(T, -1, -2)))
     # Round-off can leave a correlation or a covariance a hair below zero.
     d, e = np.clip(d, 0.0, None), np.clip(e, 0.0, None)
     # U' J_j Lambda^-1/2 W for every parameter j, then the diagonal weights.
-    rotated = np.einsum("nl,nsj,s,sa->jla", U, J, root, W)
-    weighted = rotated / (np.outer(e, d) + 1.0)
-    return np.einsum("jla,kla->jk", weighted, rotated)
+    rotated = np.einsum("...nl,...nsj,...s,...sa->...jla", U, J, root, W)
+    weighted = rotated / (e[..., None, :, None] * d[..., None, None, :] + 1.0)
+    return np.einsum("...jla,...kla->...jk", weighted, rotated)
 
 
 def replicate_identifiability(ctx, subsets, modes, means, covs):
@@ -90,45 +90,80 @@ def replicate_identifiability(ctx, subsets, modes, means, covs):
     ndarray of shape (m, r)
     """
     scale = ctx.scaler.theta_scale
-    out = np.empty((len(subsets), len(scale)))
-    # The sensitivities at every subset's posterior mean in blocks of one
+    r, n = len(scale), ctx.n
+    # The sensitivities at every subset's posterior mean, in blocks of one
     # conditional of the emulator each (BLAS-bound, bounded memory).
-    step = max(1, _BLOCK_THETAS // (2 * len(scale) + 1))
-    for start in range(0, len(subsets), step):
-        block = slice(start, start + step)
-        J, T = sensitivities(ctx.emulator, ctx.Xs, ctx.std_theta(means[block]))
-        for k, j in enumerate(range(len(subsets))[block]):
-            cov = covs[j] / np.outer(scale, scale)
-            out[j] = _ratio(ctx, subsets[j], modes[j], J[k], T[k], cov)
+    step = max(1, _BLOCK_THETAS // (2 * r + 1))
+    pieces = [
+        sensitivities(ctx.emulator, ctx.Xs, ctx.std_theta(means[i : i + step]))
+        for i in range(0, len(subsets), step)
+    ]
+    J = np.concatenate([p[0] for p in pieces])  # (m, n, q, r)
+    T = np.concatenate([p[1] for p in pieces])  # (m, n, n)
+    covs = covs / np.outer(scale, scale)
+    out = np.empty((len(subsets), r))
+    # Subsets of one size in stacks of at most _STACK_BYTES of covariance.
+    by_size = {}
+    for j, subset in enumerate(subsets):
+        by_size.setdefault(len(subset), []).append(j)
+    for size, members in by_size.items():
+        chunk = max(1, _STACK_BYTES // (8 * (size * n) ** 2))
+        for c in range(0, len(members), chunk):
+            group = np.array(members[c : c + chunk])
+            parts = ([subsets[j] for j in group], [modes[j] for j in group])
+            out[group] = _ratios(ctx, *parts, J[group], T[group], covs[group])
     return out
 
 
 #: Thetas of one conditional of the emulator (its cross-correlations with
 #: the simulations are ``N x n`` per theta).
 _BLOCK_THETAS = 128
+#: Bytes of the field covariances one stack of the plug-in's probe holds.
+_STACK_BYTES = 64 * 2**20
 
 
-def _ratio(ctx, subset, mode, J, T, cov):
-    """One subset: the data share of the posterior (``"propagate"``) or the
-    probe's ratio (the plug-in), ``J`` (n, q, r) and ``T`` at its mean."""
-    idx = list(subset)
-    J = J[:, idx]
-    sigma2_m = ctx.emulator.sigma2[np.ix_(idx, idx)]
-    noise, sigma2_d = mode.noise, mode.sigma2
-    if len(noise) == ctx.q:
-        noise, sigma2_d = noise[idx], sigma2_d[np.ix_(idx, idx)]
+def _ratios(ctx, subsets, modes, J, T, covs):
+    """Subsets of one size: the data share of the posterior
+    (``"propagate"``) or the probe's ratio (the plug-in), with ``J``
+    (g, n, q, r) and ``T`` (g, n, n) at their means."""
+    idx = np.array(subsets)  # (g, s)
+    g, s = idx.shape
+    n = ctx.n
+    J = np.swapaxes(J[np.arange(g)[:, None], :, idx], 1, 2)  # (g, n, s, r)
+    sigma2_m = ctx.emulator.sigma2[idx[:, :, None], idx[:, None, :]]
+    restricted = [
+        _restricted(mode, list(subset), ctx.q)
+        for mode, subset in zip(modes, subsets, strict=True)
+    ]
+    noise = np.array([pair[0] for pair in restricted])  # (g, s)
+    sigma2_d = np.array([pair[1] for pair in restricted])  # (g, s, s)
     information = kronecker_information(J, sigma2_m, noise, T)
     if ctx.hyperprior is not None:
-        return data_share(information, cov)
-    n, s = ctx.n, len(idx)
-    sd = np.sqrt(np.clip(np.diag(sigma2_d), 1e-300, None))
-    big = ctx.probe_prior.sd_quantile(PROBE_LEVEL, ctx.q)[idx]
-    corr = sigma2_d / np.outer(sd, sd)
-    K_d = np.kron(corr * np.outer(big, big), mode.kernel_(ctx.Xs))
-    V0 = np.kron(sigma2_m, T) + np.kron(np.diag(noise), np.eye(n))
-    J_vec = J.transpose(1, 0, 2).reshape(s * n, -1)  # response-slowest
+        return data_share(information, covs)
+    kernels = {}
+    for mode in modes:  # one discrepancy correlation per mode
+        kernels.setdefault(id(mode), mode.kernel_(ctx.Xs))
+    R_d = np.array([kernels[id(mode)] for mode in modes])
+    sd = np.sqrt(np.clip(np.diagonal(sigma2_d, axis1=1, axis2=2), 1e-300, None))
+    big = ctx.probe_prior.sd_quantile(PROBE_LEVEL, ctx.q)[idx] / sd  # (g, s)
+    K = sigma2_d * big[:, :, None] * big[:, None, :]
+    # V_0 + K_d, response-slowest: (g, s, n, s, n) blocks.
+    V = sigma2_m[:, :, None, :, None] * T[:, None, :, None, :]
+    V += K[:, :, None, :, None] * R_d[:, None, :, None, :]
+    V = V.reshape(g, s * n, s * n)
+    V[:, np.arange(s * n), np.arange(s * n)] += np.repeat(noise, n, axis=1)
+    J_vec = np.swapaxes(J, 1, 2).reshape(g, s * n, -1)
     X_d = np.kron(np.eye(s), ctx.H_d)
-    return probe_share(information, probe_sds(J_vec, V0, K_d, X_d))
+    probe_sd = stacked_probe_sds(J_vec, V, X_d, 0.5 * float(noise.min()))
+    return probe_share(information, probe_sd)
+
+
+def _restricted(mode, idx, q):
+    """The noise variances and discrepancy covariance of a mode on the
+    responses ``idx`` (a mode fitted on them alone is already)."""
+    if len(mode.noise) != q:
+        return mode.noise, mode.sigma2
+    return mode.noise[idx], mode.sigma2[np.ix_(idx, idx)]
 
 
 def identifiability_summary(ratios):
