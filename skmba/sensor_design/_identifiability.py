@@ -37,6 +37,7 @@ from skmba.calibration._module3_identifiability import (
     IDENTIFIABILITY_THRESHOLD,
     PROBE_LEVEL,
     data_share,
+    probe_sds,
     probe_share,
     sensitivities,
     stacked_probe_sds,
@@ -154,7 +155,13 @@ def _ratios(ctx, subsets, modes, J, T, covs):
     V[:, np.arange(s * n), np.arange(s * n)] += np.repeat(noise, n, axis=1)
     J_vec = np.swapaxes(J, 1, 2).reshape(g, s * n, -1)
     X_d = np.kron(np.eye(s), ctx.H_d)
-    probe_sd = stacked_probe_sds(J_vec, V, X_d, 0.5 * float(noise.min()))
+    try:
+        probe_sd = stacked_probe_sds(J_vec, V, X_d, 0.5 * float(noise.min()))
+    except np.linalg.LinAlgError:
+        # The bound (half the smallest noise variance) failed: a correlation
+        # with round-off below zero beside a tiny noise. One by one, as the
+        # calibrator factors its own probe.
+        probe_sd = np.array([probe_sds(J_vec[k], V[k], 0.0, X_d) for k in range(g)])
     return probe_share(information, probe_sd)
 
 

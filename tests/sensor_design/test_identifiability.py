@@ -177,3 +177,27 @@ def test_the_designer_names_the_confounded_parameter_only():
     )
     table = both.summary()
     assert list(table.columns)[-2:] == ["warning_rate[theta0]", "warning_rate[theta1]"]
+
+
+def test_the_probe_falls_back_to_one_by_one_when_the_stack_fails(context, monkeypatch):
+    """Where the stacked factorisation's eigenvalue bound fails, each
+    subset's probe is factored on its own: the same ratios."""
+    import skmba.sensor_design._identifiability as module
+
+    ctx = context["plug-in"]
+    mode = SimpleNamespace(
+        noise=np.array([0.02, 0.05]),
+        sigma2=np.array([[0.3, 0.12], [0.12, 0.2]]),
+        kernel_=Gauss(roughness=2.0),
+    )
+    args = (ctx, [(0,), (1,)], [mode, mode], np.array([[69e3], [71e3]]))
+    covs = np.full((2, 1, 1), 1500.0**2)
+    stacked = replicate_identifiability(*args, covs)
+
+    def fail(*a, **k):
+        raise np.linalg.LinAlgError("no bound")
+
+    monkeypatch.setattr(module, "stacked_probe_sds", fail)
+    np.testing.assert_allclose(
+        replicate_identifiability(*args, covs), stacked, rtol=1e-8
+    )
