@@ -45,7 +45,7 @@ import numpy as np
 import threadpoolctl
 from joblib import Parallel, delayed
 
-from skmba import ModularBayesCalibrator, PreposteriorDesigner
+from skmba import PreposteriorDesigner
 from skmba.calibration._module3_identifiability import IDENTIFIABILITY_THRESHOLD
 from skmba.datasets import make_cantilever
 from skmba.exceptions import NonIdentifiabilityWarning
@@ -57,6 +57,7 @@ from validation.cases import (
 )
 from validation.sbc_cases import draw_field_data
 from validation.statistics import wilson_interval
+from validation.studies.designer_vs_calibrator import fit_subset
 
 RESPONSES = (
     "tip_displacement",
@@ -147,15 +148,7 @@ def one_seed(problem, seed, X_field):
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
                 try:
-                    cal = ModularBayesCalibrator(
-                        prior=problem.prior, random_state=seed, n_jobs=1
-                    ).fit(
-                        X_field,
-                        y[:, cols],
-                        X_sim=problem.X_sim,
-                        theta_sim=problem.theta_sim,
-                        y_sim=problem.y_sim[:, cols],
-                    )
+                    cal = fit_subset(problem, X_field, y, cols, seed)
                 except Exception as exc:  # a failed fit is a result
                     out.append({"subset": subset, "error": repr(exc)})
                     continue
@@ -192,11 +185,7 @@ def cantilever_table(records, predicted):
             f"{name:<8}{rate:>15.2f}{'warn' if warns else 'quiet':>10}"
             f"{f'{k}/{len(ok)}':>9}{f'[{low:.2f}, {high:.2f}]':>16}{same:>7}"
         )
-    low, high = wilson_interval(agree, total)
-    lines.append(
-        f"agreement over (subset, seed) pairs: {agree}/{total} = "
-        f"{agree / total:.3f} [{low:.3f}, {high:.3f}]"
-    )
+    lines.append(_agreement(agree, total, "subset"))
     return "\n".join(lines), agree, total
 
 
@@ -219,12 +208,17 @@ def offset_table(records, predicted):
             f"{ratio[j]:.3f}: {'names' if flagged else 'quiet'}); named "
             f"{k}/{len(ok)} [{low:.2f}, {high:.2f}]; agree {same}/{len(ok)}"
         )
+    lines.append(_agreement(agree, total, "parameter"))
+    return "\n".join(lines), agree, total
+
+
+def _agreement(agree, total, what):
+    """The agreement line: its count, rate and Wilson 95 % interval."""
     low, high = wilson_interval(agree, total)
-    lines.append(
-        f"agreement over (parameter, seed) pairs: {agree}/{total} = "
+    return (
+        f"agreement over ({what}, seed) pairs: {agree}/{total} = "
         f"{agree / total:.3f} [{low:.3f}, {high:.3f}]"
     )
-    return "\n".join(lines), agree, total
 
 
 def run(design, n_seeds, n_mc, n_jobs, first_seed=0):

@@ -80,6 +80,18 @@ def subsets():
     return [s for k in range(1, q + 1) for s in itertools.combinations(range(q), k)]
 
 
+def fit_subset(problem, X_field, y, cols, seed):
+    """``ModularBayesCalibrator()`` (defaults, one job) on the responses
+    ``cols`` of the field data ``y`` and of ``problem``'s simulations."""
+    return ModularBayesCalibrator(prior=problem.prior, random_state=seed, n_jobs=1).fit(
+        X_field,
+        y[:, cols],
+        X_sim=problem.X_sim,
+        theta_sim=problem.theta_sim,
+        y_sim=problem.y_sim[:, cols],
+    )
+
+
 def one_seed(seed, X_field):
     """E*, then per subset: posterior variance, covered, z (never raises)."""
     data = problem()
@@ -95,17 +107,7 @@ def one_seed(seed, X_field):
         for subset in subsets():
             cols = list(subset)
             try:
-                cal = ModularBayesCalibrator(
-                    prior=data.prior,
-                    random_state=seed,
-                    n_jobs=1,
-                ).fit(
-                    X_field,
-                    y[:, cols],
-                    X_sim=data.X_sim,
-                    theta_sim=data.theta_sim,
-                    y_sim=data.y_sim[:, cols],
-                )
+                cal = fit_subset(data, X_field, y, cols, seed)
             except Exception as exc:  # a failed fit is a result
                 out.append({"subset": subset, "error": f"{type(exc).__name__}: {exc}"})
                 continue
