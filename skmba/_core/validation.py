@@ -129,17 +129,28 @@ class Count(_Constraint):
 
 
 class Real(_Constraint):
-    """A real number (not a bool), finite if ``finite``, ``>= minimum`` if given.
+    """A real number (not a bool), finite if ``finite``, ``>= minimum`` and
+    ``<= maximum`` if given.
 
     >>> Real(minimum=0, hint="the nugget, e.g. 1e-10").message("alpha", -1.0)
     'alpha must be a finite float >= 0 (the nugget, e.g. 1e-10), got -1.0.'
+    >>> Real(minimum=0, maximum=1).message("rate", 1.5)
+    'rate must be a finite float in [0, 1], got 1.5.'
     """
 
-    def __init__(self, *, minimum=None, finite=True, hint=None, allow_none=False):
+    def __init__(
+        self, *, minimum=None, maximum=None, finite=True, hint=None, allow_none=False
+    ):
         super().__init__(hint=hint, allow_none=allow_none)
         self.minimum = minimum
+        self.maximum = maximum
         self.finite = finite
-        bound = "" if minimum is None else f" >= {minimum:g}"
+        if minimum is not None and maximum is not None:
+            bound = f" in [{minimum:g}, {maximum:g}]"
+        elif maximum is not None:
+            bound = f" <= {maximum:g}"
+        else:
+            bound = "" if minimum is None else f" >= {minimum:g}"
         self.phrase = ("a finite float" if finite else "a float") + bound
 
     def _accepts(self, value):
@@ -148,6 +159,7 @@ class Real(_Constraint):
             and not isinstance(value, bool)
             and (not self.finite or np.isfinite(value))
             and (self.minimum is None or value >= self.minimum)
+            and (self.maximum is None or value <= self.maximum)
         )
 
 

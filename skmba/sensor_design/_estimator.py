@@ -28,13 +28,11 @@ from skmba._core.columns import (
 from skmba._core.progress import Progress, results_as_ready
 from skmba._core.threads import BlasTask, blas_threads
 from skmba._core.validation import int_seed, seed_sequence, validate_parameter_table
-from skmba.calibration._estimator import ModularBayesCalibrator
 from skmba.calibration._field_data import check_same_index, prior_names
 from skmba.calibration._module1_emulator import Standardizer, fit_emulator
-from skmba.calibration._settings import PARAMETER_TABLE as CALIBRATION_TABLE
-from skmba.calibration._settings import CalibrationSettings
 from skmba.sensor_design._inputs import (
     PARAMETER_TABLE,
+    calibration_settings,
     designer_prior,
     field_design,
     given_prior,
@@ -209,6 +207,11 @@ class PreposteriorDesigner(BaseEstimator):
         badly scaled and full convergence can take thousands of evaluations
         for a small gain. None runs to convergence (slower, measured in
         ``benchmarks/bench_sensor_design.py``).
+    max_warning_rate : float in [0, 1], default=None
+        Rank first the subsets predicted to identify theta: no parameter's
+        ``warning_rate_`` above this. ``best_subset_`` is the best of them
+        (none: of all, with a warning), greedy and genetic searches prefer
+        them, ``summary()`` lists them first. None ranks by score alone.
 
     Attributes
     ----------
@@ -223,7 +226,7 @@ class PreposteriorDesigner(BaseEstimator):
         Monte Carlo standard error of each score: the jackknife over the
         replicates (see :meth:`summary`); NaN when ``n_mc=1``.
     best_subset_ : tuple
-        The subset with the lowest score.
+        The subset with the lowest score (of ``identified_``, if any).
     support_ : ndarray of shape (q,), dtype=bool
         Mask of ``best_subset_`` over the responses.
     ranking_ : ndarray of shape (q,)
@@ -243,6 +246,12 @@ class PreposteriorDesigner(BaseEstimator):
         Share of the replicates on which the calibrator's
         :class:`~skmba.exceptions.NonIdentifiabilityWarning` would name
         each parameter (``identifiability_`` below 1/3 there).
+    warning_rate_mcse_ : ndarray of shape (n_subsets, r)
+        Its binomial standard error, ``sqrt(p (1 - p) / n_mc)`` (0 where all
+        replicates agree: within ``3 / n_mc`` of 0 or 1 at 95 % then).
+    identified_ : ndarray of shape (n_subsets,), dtype=bool
+        Subsets within ``max_warning_rate`` for every parameter (all when
+        it is None).
     theta_draws_ : ndarray of shape (n_mc, r)
         The replicates' ``theta``.
     X_design_ : ndarray of shape (n, d)
@@ -330,6 +339,7 @@ class PreposteriorDesigner(BaseEstimator):
         verbose=0,
         prior_units="standardised",
         module2_max_iter=200,
+        max_warning_rate=None,
     ):
         self.prior = prior
         self.calibrator = calibrator
@@ -350,6 +360,7 @@ class PreposteriorDesigner(BaseEstimator):
         self.verbose = verbose
         self.prior_units = prior_units
         self.module2_max_iter = module2_max_iter
+        self.max_warning_rate = max_warning_rate
 
     # -------------------------------------------------------------- fit
     def fit(self, X, y):
@@ -390,7 +401,7 @@ class PreposteriorDesigner(BaseEstimator):
         # design (and the genetic search), the nodes, the replicates.
         children = seed_sequence(self.random_state).spawn(5)
         seeds = [int_seed(c) for c in children[:4]]
-        settings = self._calibration_settings()
+        settings = calibration_settings(self.calibrator, self.n_jobs)
         X_sim, theta_sim = X[:, :d], X[:, d:]
 
         # Step 1: emulator, design, priors, prior-integrated emulator.
@@ -437,6 +448,7 @@ class PreposteriorDesigner(BaseEstimator):
             n_jobs=self.n_jobs,
             progress=self._progress(),
             started=started,
+            max_warning_rate=self.max_warning_rate,
         )
 
         # Step 3: preposterior covariance and its norm.
@@ -488,20 +500,6 @@ class PreposteriorDesigner(BaseEstimator):
                 bar.update(1)
         return replicates
 
-    def _calibration_settings(self):
-        """The MBA settings of the calibrator template, checked."""
-        template = self.calibrator or ModularBayesCalibrator()
-        params = {**template.get_params(deep=False), "n_jobs": self.n_jobs}
-        params.update(prior=None, simulator=None)
-        validate_parameter_table(CALIBRATION_TABLE, params, type(template).__name__)
-        if params["estimand"] != "physical":
-            raise ValueError(
-                f"calibrator has estimand={params['estimand']!r}: the designer "
-                "ranks sensors by the posterior variance of the physical "
-                'parameters only. Pass a calibrator with estimand="physical".'
-            )
-        return CalibrationSettings.from_params(params)
-
     def _set_fitted(
         self, results, replicates, prior, prior_cov, q, X_design, gp, names=None
     ):
@@ -511,7 +509,9 @@ class PreposteriorDesigner(BaseEstimator):
         self.model_gp_ = gp
         self.n_responses_ = q
         self.response_names_ = names
-        scores = design_scores(results, replicates, prior_cov, self.criterion, q)
+        scores = design_scores(
+            results, replicates, prior_cov, self.criterion, q, self.max_warning_rate
+        )
         for name, value in scores.items():
             setattr(self, f"{name}_", value)
 
@@ -539,16 +539,17 @@ class PreposteriorDesigner(BaseEstimator):
             a first field ``rank`` without pandas), with the columns
             ``subset`` (the response names joined by ", "),
             ``n_responses``, ``score`` (``scores_``), ``mcse``
-            (``scores_mcse_``) and, per parameter, ``warning_rate[<name>]``
-            (``warning_rate_``; names from the prior, else ``theta0``,
-            ...). The Monte Carlo standard error is the jackknife
-            estimate over the ``n_mc`` replicates: with ``s_(i)`` the
-            criterion of the mean posterior covariance without
-            replicate ``i``, ``sqrt((n_mc - 1) / n_mc * sum_i (s_(i) -
-            mean s_(.))**2)``; for ``criterion="trace"`` it is the standard
-            error of the mean of the per-replicate criteria. Two subsets
-            see the same replicates, so the difference of their scores is
-            usually known better than these errors suggest.
+            (``scores_mcse_``), with ``max_warning_rate`` ``identified``
+            (``identified_``, those subsets first) and, per parameter,
+            ``warning_rate[<name>]`` and ``warning_rate_mcse[<name>]``
+            (names from the prior, else ``theta0``, ...). ``mcse`` is the
+            jackknife over the ``n_mc`` replicates: with ``s_(i)`` the
+            criterion of the mean posterior covariance without replicate
+            ``i``, ``sqrt((n_mc - 1) / n_mc * sum_i (s_(i) - mean
+            s_(.))**2)``; for ``criterion="trace"`` the standard error of
+            the mean of the per-replicate criteria. Two subsets see the
+            same replicates, so the difference of their scores is usually
+            known better than these errors suggest.
         """
         check_is_fitted(self, "scores_")
         q = self.n_responses_
@@ -569,8 +570,9 @@ class PreposteriorDesigner(BaseEstimator):
             self.subsets_,
             self.scores_,
             self.scores_mcse_,
-            self.warning_rate_,
+            (self.warning_rate_, self.warning_rate_mcse_),
             parameters,
+            None if self.max_warning_rate is None else self.identified_,
         )
 
     def score_subset(self, subset):

@@ -189,8 +189,24 @@ def identifiability_summary(ratios):
         :data:`~skmba.calibration._module3_identifiability.IDENTIFIABILITY_THRESHOLD`:
         the chance that the calibrator's warning names it on data from
         that subset.
+    warning_rate_mcse : ndarray of shape (n_subsets, r)
+        Its binomial standard error over the independent replicates,
+        ``sqrt(p (1 - p) / n_mc)`` (0 where every replicate agrees).
     """
     ratios = np.asarray(ratios, dtype=float)
-    return np.median(ratios, axis=1), np.mean(
-        ratios < IDENTIFIABILITY_THRESHOLD, axis=1
-    )
+    rate = np.mean(ratios < IDENTIFIABILITY_THRESHOLD, axis=1)
+    mcse = np.sqrt(rate * (1.0 - rate) / ratios.shape[1])
+    return np.median(ratios, axis=1), rate, mcse
+
+
+def predicted_identified(warning_rate, max_warning_rate):
+    """Which subsets are predicted to identify theta: every parameter's
+    warning rate at most ``max_warning_rate`` (None: all of them).
+
+    >>> predicted_identified(np.array([[0.1, 0.2], [0.1, 0.6]]), 0.5)
+    array([ True, False])
+    """
+    rate = np.asarray(warning_rate, dtype=float)
+    if max_warning_rate is None:
+        return np.ones(len(rate), dtype=bool)
+    return np.all(rate <= max_warning_rate, axis=1)

@@ -14,16 +14,25 @@ Examples
 (4, 1)
 """
 
-from numbers import Real
+import numbers
 
 import numpy as np
 from scipy import stats
 from sklearn.utils import check_array
 
-from skmba._core.validation import Boolean, Count, InstanceOf, NJobs, Options
+from skmba._core.validation import (
+    Boolean,
+    Count,
+    InstanceOf,
+    NJobs,
+    Options,
+    Real,
+    validate_parameter_table,
+)
 from skmba._core.warn import warn
 from skmba.calibration._estimator import ModularBayesCalibrator
-from skmba.calibration._settings import DISCREPANCY_UNCERTAINTIES
+from skmba.calibration._settings import DISCREPANCY_UNCERTAINTIES, CalibrationSettings
+from skmba.calibration._settings import PARAMETER_TABLE as CALIBRATION_TABLE
 from skmba.calibration._simulations import RUNS_PER_INPUT, nonfinite_rows
 from skmba.priors._hyperprior import Hyperprior
 from skmba.priors._table_6_2 import (
@@ -67,11 +76,35 @@ PARAMETER_TABLE = {
     "verbose": [Count(minimum=0)],
     "prior_units": [Options(PRIOR_UNITS)],
     "module2_max_iter": [Count(minimum=1, allow_none=True)],
+    "max_warning_rate": [
+        Real(
+            minimum=0,
+            maximum=1,
+            hint="e.g. 0.1; None ranks every subset",
+            allow_none=True,
+        )
+    ],
 }
 
 #: Field design points when neither ``X_design`` nor ``n_design`` is given
 #: (section 6.3).
 DEFAULT_N_DESIGN = 25
+
+
+def calibration_settings(calibrator, n_jobs):
+    """The MBA settings of the designer's ``calibrator`` template (None:
+    the defaults), checked, with the designer's ``n_jobs``."""
+    template = calibrator or ModularBayesCalibrator()
+    params = {**template.get_params(deep=False), "n_jobs": n_jobs}
+    params.update(prior=None, simulator=None)
+    validate_parameter_table(CALIBRATION_TABLE, params, type(template).__name__)
+    if params["estimand"] != "physical":
+        raise ValueError(
+            f"calibrator has estimand={params['estimand']!r}: the designer "
+            "ranks sensors by the posterior variance of the physical "
+            'parameters only. Pass a calibrator with estimand="physical".'
+        )
+    return CalibrationSettings.from_params(params)
 
 
 def given_prior(prior, calibrator):
@@ -227,7 +260,7 @@ def check_design_priors(discrepancy_prior, noise_prior, prior_units, d, q, y_sca
             )
         if corr == "independent":
             corr = np.eye(q)
-    elif isinstance(corr, Real):
+    elif isinstance(corr, numbers.Real):
         low = -1.0 / (q - 1) if q > 1 else -1.0
         if not low < corr < 1.0:
             raise ValueError(

@@ -41,8 +41,10 @@ from skmba._core.threads import BlasTask
 from skmba._core.validation import int_seed
 from skmba._core.warn import warn
 from skmba.calibration._summary import table
+from skmba.exceptions import NonIdentifiabilityWarning
 from skmba.sensor_design._identifiability import (
     identifiability_summary,
+    predicted_identified,
     replicate_identifiability,
 )
 from skmba.sensor_design._posterior_moments import posterior_moments
@@ -52,6 +54,13 @@ from skmba.sensor_design._subset_tree import (
     path_bytes,
     subset_tree_log_likelihoods,
 )
+
+#: What a subset predicted to leave theta unidentified adds to its score in
+#: the search, with ``max_warning_rate`` (a lexicographic order: scores are
+#: norms of covariances whitened by the prior, 1 at the prior itself, far
+#: below this), so that it ranks after every subset predicted to identify
+#: theta.
+UNIDENTIFIED_OFFSET = 1e6
 
 
 def criterion_value(cov, prior_cov, criterion):
@@ -285,23 +294,33 @@ def jackknife_mcse(covs, score):
     return np.sqrt((n - 1) / n * spread)
 
 
-def design_table(names, subsets, scores, mcse, warning_rate, parameters):
+def design_table(names, subsets, scores, mcse, rates, parameters, identified=None):
     """The scored sensor subsets, best first: one row per subset with the
     response ``names`` of its members, its size, score, Monte Carlo
     standard error and, per parameter (named by ``parameters``), the share
-    of replicates on which the calibrator's warning would name it (see
-    :meth:`skmba.PreposteriorDesigner.summary`)."""
-    order = np.argsort(scores, kind="stable")
+    of replicates on which the calibrator's warning would name it and that
+    share's standard error (``rates``: the pair of arrays ``warning_rate``,
+    ``warning_rate_mcse``; see :meth:`skmba.PreposteriorDesigner.summary`).
+    With ``identified`` (a mask over ``subsets``), those subsets come
+    first and a column says which they are."""
+    keys = (np.asarray(scores, dtype=float),)
+    if identified is not None:
+        keys = (*keys, ~np.asarray(identified, dtype=bool))
+    order = np.lexsort(keys)  # the last key sorts first; stable
     ranked = [subsets[i] for i in order]
     columns = {
         "subset": np.array([", ".join(names[k] for k in s) for s in ranked]),
         "n_responses": np.array([len(s) for s in ranked]),
-        "score": np.asarray(scores, dtype=float)[order],
+        "score": keys[0][order],
         "mcse": np.asarray(mcse, dtype=float)[order],
     }
-    rates = np.asarray(warning_rate, dtype=float)[order]
+    if identified is not None:
+        columns["identified"] = np.asarray(identified, dtype=bool)[order]
+    rate, rate_mcse = (np.asarray(a, dtype=float)[order] for a in rates)
     for j, name in enumerate(parameters):
-        columns[f"warning_rate[{name}]"] = rates[:, j]
+        columns[f"warning_rate[{name}]"] = rate[:, j]
+    for j, name in enumerate(parameters):
+        columns[f"warning_rate_mcse[{name}]"] = rate_mcse[:, j]
     return table("rank", np.arange(1, len(order) + 1), columns)
 
 
@@ -357,16 +376,29 @@ def _stage1_log_likelihoods(ctx, replicates, subsets):
     return out
 
 
-def phase2(ctx, replicates, criterion, search, *, n_jobs, progress, started):
+def phase2(
+    ctx,
+    replicates,
+    criterion,
+    search,
+    *,
+    n_jobs,
+    progress,
+    started,
+    max_warning_rate=None,
+):
     """Phase 2: the posterior moments of every subset the search scores.
 
     ``criterion(means)`` scores a stack of mean posterior covariances;
     ``search`` is a :class:`~skmba.sensor_design._subset_search.SearchSettings`.
+    With ``max_warning_rate``, the search prefers the subsets predicted to
+    identify theta (:func:`~skmba.sensor_design._identifiability.predicted_identified`):
+    the others score :data:`UNIDENTIFIED_OFFSET` more.
     Each batch of new subsets the search asks for runs in joblib tasks of a
     block of replicates and a chunk of subsets (:func:`subset_moments`); a
     bar counts the (subset, replicate) evaluations. An exhaustive search
     scores all its subsets in one batch, announced with its size before it
-    starts. Returns ``{subset: (means, covs)}`` over the replicates.
+    starts. Returns ``{subset: (means, covs, ratios)}`` over the replicates.
     """
     results = {}
     n_mc, q = len(replicates), ctx.q
@@ -406,17 +438,38 @@ def phase2(ctx, replicates, criterion, search, *, n_jobs, progress, started):
                 f"scored {len(results)} subsets ({time.perf_counter() - started:.1f} s)"
             )
         means = np.array([results[s][1].mean(axis=0) for s in subsets])
-        return criterion(means).tolist()
+        ratios = [results[s][2] for s in subsets]
+        return search_values(criterion(means), ratios, max_warning_rate).tolist()
 
     with bar:
         search.run(evaluate, q)
     return results
 
 
-def design_scores(results, replicates, prior_cov, criterion, q):
+def search_values(scores, ratios, max_warning_rate):
+    """What the search minimises: the ``scores``, plus
+    :data:`UNIDENTIFIED_OFFSET` for the subsets whose identifiability
+    ``ratios`` (one (n_mc, r) array per subset) predict a warning rate above
+    ``max_warning_rate``, so that they rank after all the others, in the
+    order of their scores (None: the scores).
+
+    >>> ratios = [np.full((2, 1), 0.9), np.full((2, 1), 0.1)]
+    >>> search_values(np.array([0.5, 0.2]), ratios, 0.1)
+    array([5.000000e-01, 1.000000e+06])
+    """
+    scores = np.asarray(scores, dtype=float)
+    if max_warning_rate is None:
+        return scores
+    rate = identifiability_summary(ratios)[1]
+    return scores + UNIDENTIFIED_OFFSET * ~predicted_identified(rate, max_warning_rate)
+
+
+def design_scores(results, replicates, prior_cov, criterion, q, max_warning_rate=None):
     """Step 3: the designer's scores from the posterior moments ``results``
     (``{subset: (means, covs, ratios)}`` over the replicates), as a dict of
-    its fitted attributes (names without the trailing underscore)."""
+    its fitted attributes (names without the trailing underscore). With
+    ``max_warning_rate``, the best subset is the best of those predicted to
+    identify theta, or, when there is none, of all (with a warning)."""
 
     def score(cov):
         return criterion_value(cov, prior_cov, criterion)
@@ -433,12 +486,30 @@ def design_scores(results, replicates, prior_cov, criterion, q):
     running = np.cumsum(covs, axis=1) / np.arange(1, n_mc + 1)[:, None, None]
     out["convergence"] = score(running).T
     out["expected_error"] = np.sqrt(np.mean((means - theta_draws[None]) ** 2, axis=1))
-    out["identifiability"], out["warning_rate"] = identifiability_summary(
-        [results[s][2] for s in subsets]
-    )
-    out["best_subset"] = subsets[int(np.argmin(out["scores"]))]
+    rates = identifiability_summary([results[s][2] for s in subsets])
+    out["identifiability"], out["warning_rate"], out["warning_rate_mcse"] = rates
+    out["identified"] = predicted_identified(out["warning_rate"], max_warning_rate)
+    out["best_subset"] = subsets[_best_index(out["scores"], out["identified"])]
     out["support"] = np.zeros(q, dtype=bool)
     out["support"][list(out["best_subset"])] = True
     single = score(np.array([results[(j,)][1].mean(axis=0) for j in range(q)]))
     out["ranking"] = stats.rankdata(single, method="min").astype(int)
+    if not out["identified"].any():
+        warn(
+            f"No scored subset is predicted to identify theta at "
+            f"max_warning_rate={max_warning_rate:g}: every one has a parameter "
+            "that the calibrator's NonIdentifiabilityWarning would name more "
+            f"often (lowest largest rate {out['warning_rate'].max(axis=1).min():.2f}"
+            "). best_subset_ is the best of all of them; see warning_rate_ "
+            "for what each subset leaves to the discrepancy prior.",
+            NonIdentifiabilityWarning,
+        )
     return out
+
+
+def _best_index(scores, identified):
+    """The lowest score among the ``identified`` subsets, or among all when
+    none is."""
+    if not identified.any():
+        return int(np.argmin(scores))
+    return int(np.flatnonzero(identified)[np.argmin(scores[identified])])

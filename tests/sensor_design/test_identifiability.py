@@ -20,6 +20,7 @@ from skmba.priors._hyperprior import Hyperprior
 from skmba.sensor_design._identifiability import (
     identifiability_summary,
     kronecker_information,
+    predicted_identified,
     replicate_identifiability,
 )
 
@@ -130,9 +131,18 @@ def test_replicate_identifiability_is_the_calibrators_rule(context, treatment, s
 
 def test_summary_is_the_median_and_the_share_below_the_threshold():
     ratios = np.array([[[0.1, 0.9], [0.2, 0.8], [0.5, 0.2], [0.6, 0.7]]])  # 1 subset
-    median, rate = identifiability_summary(ratios)
+    median, rate, mcse = identifiability_summary(ratios)
     np.testing.assert_allclose(median, [[0.35, 0.75]])
     np.testing.assert_allclose(rate, [[0.5, 0.25]])
+    # the standard error of a share of 4 independent replicates
+    np.testing.assert_allclose(mcse, [stats.bernoulli([0.5, 0.25]).std() / 2])
+
+
+def test_predicted_identified_is_every_rate_within_the_bound():
+    rate = np.array([[0.0, 0.1], [0.1, 0.11], [0.3, 0.0]])
+    np.testing.assert_array_equal(predicted_identified(rate, 0.1), [True, False, False])
+    np.testing.assert_array_equal(predicted_identified(rate, 1.0), [True] * 3)
+    np.testing.assert_array_equal(predicted_identified(rate, None), [True] * 3)
 
 
 def _frequency_designer(with_offset, n_mc=10):
@@ -176,7 +186,17 @@ def test_the_designer_names_the_confounded_parameter_only():
         both.warning_rate_ * 10, np.round(both.warning_rate_ * 10)
     )
     table = both.summary()
-    assert list(table.columns)[-2:] == ["warning_rate[theta0]", "warning_rate[theta1]"]
+    assert list(table.columns)[-4:] == [
+        "warning_rate[theta0]",
+        "warning_rate[theta1]",
+        "warning_rate_mcse[theta0]",
+        "warning_rate_mcse[theta1]",
+    ]
+    p = both.warning_rate_
+    np.testing.assert_allclose(both.warning_rate_mcse_, np.sqrt(p * (1 - p) / 10))
+    np.testing.assert_allclose(
+        table["warning_rate_mcse[theta1]"], [np.sqrt(p[0, 1] * (1 - p[0, 1]) / 10)]
+    )
 
 
 def test_the_probe_falls_back_to_one_by_one_when_the_stack_fails(context, monkeypatch):
@@ -201,3 +221,171 @@ def test_the_probe_falls_back_to_one_by_one_when_the_stack_fails(context, monkey
     np.testing.assert_allclose(
         replicate_identifiability(*args, covs), stacked, rtol=1e-8
     )
+
+
+def _results(scores_and_ratios):
+    """Synthetic phase-2 results ``{subset: (means, covs, ratios)}`` for one
+    parameter and 4 replicates: each subset's posterior variance its score
+    (the prior's variance is 1), its ratios the given ones."""
+    return {
+        subset: (
+            np.zeros((4, 1)),
+            np.full((4, 1, 1), score),
+            np.reshape(ratios, (4, 1)),
+        )
+        for subset, (score, ratios) in scores_and_ratios.items()
+    }
+
+
+# (0, 1) scores best but the calibrator would warn on 3 of 4 replicates;
+# (1,) is next and would warn on 1 of 4, (0,) on 2.
+RESULTS = _results(
+    {
+        (0,): (0.5, [0.9, 0.1, 0.1, 0.9]),
+        (1,): (0.3, [0.9, 0.8, 0.7, 0.2]),
+        (0, 1): (0.1, [0.1, 0.2, 0.9, 0.3]),
+    }
+)
+REPLICATES = [SimpleNamespace(theta=np.zeros(1))] * 4
+
+
+def test_the_best_subset_is_the_best_predicted_to_identify_theta():
+    from skmba.sensor_design._scoring import design_scores
+
+    plain = design_scores(RESULTS, REPLICATES, np.eye(1), "trace", 2)
+    assert plain["best_subset"] == (0, 1)
+    np.testing.assert_array_equal(plain["identified"], [True, True, True])
+    strict = design_scores(RESULTS, REPLICATES, np.eye(1), "trace", 2, 0.25)
+    assert strict["subsets"] == [(0,), (1,), (0, 1)]
+    np.testing.assert_array_equal(strict["identified"], [False, True, False])
+    assert strict["best_subset"] == (1,)
+    np.testing.assert_array_equal(strict["support"], [False, True])
+    np.testing.assert_allclose(strict["warning_rate"].ravel(), [0.5, 0.25, 0.75])
+    np.testing.assert_array_equal(strict["scores"], plain["scores"])
+    # at 0.5 the first subset qualifies too, and (1,) still scores better
+    assert design_scores(RESULTS, REPLICATES, np.eye(1), "trace", 2, 0.5)[
+        "best_subset"
+    ] == (1,)
+
+
+def test_no_identified_subset_warns_and_takes_the_best_of_all():
+    from skmba.exceptions import NonIdentifiabilityWarning
+    from skmba.sensor_design._scoring import design_scores
+
+    with pytest.warns(
+        NonIdentifiabilityWarning, match=r"max_warning_rate=0:.*rate 0\.25\)"
+    ):
+        out = design_scores(RESULTS, REPLICATES, np.eye(1), "trace", 2, 0.0)
+    assert out["best_subset"] == (0, 1)
+    assert not out["identified"].any()
+
+
+def test_the_table_lists_the_identified_subsets_first():
+    from skmba.sensor_design._scoring import design_scores, design_table
+
+    out = design_scores(RESULTS, REPLICATES, np.eye(1), "trace", 2, 0.5)
+    rates = (out["warning_rate"], out["warning_rate_mcse"])
+    table = design_table(
+        ["a", "b"],
+        out["subsets"],
+        out["scores"],
+        out["scores_mcse"],
+        rates,
+        ["E"],
+        out["identified"],
+    )
+    assert list(table["subset"]) == ["b", "a", "a, b"]
+    assert list(table["identified"]) == [True, True, False]
+    np.testing.assert_allclose(table["warning_rate[E]"], [0.25, 0.5, 0.75])
+    np.testing.assert_allclose(
+        table["warning_rate_mcse[E]"],
+        [np.sqrt(0.75 * 0.25 / 4), 0.25, np.sqrt(0.75 * 0.25 / 4)],
+    )
+    plain = design_table(
+        ["a", "b"], out["subsets"], out["scores"], out["scores_mcse"], rates, ["E"]
+    )
+    assert list(plain["subset"]) == ["a, b", "b", "a"]
+    assert "identified" not in plain.columns
+
+
+def test_the_greedy_search_follows_the_identified_subsets():
+    """Forward selection from the best single sensor: by score it adds
+    sensor 0 to sensor 1; with the bound, the pair is predicted
+    unidentified, so it stops at (1,) and then (1, 2)."""
+    from skmba.sensor_design._scoring import search_values
+    from skmba.sensor_design._subset_search import greedy_forward
+
+    table = {
+        (0,): (0.5, 0.9),
+        (1,): (0.3, 0.9),
+        (2,): (0.6, 0.9),
+        (0, 1): (0.1, 0.1),
+        (1, 2): (0.2, 0.9),
+        (0, 1, 2): (0.05, 0.1),
+    }
+
+    def evaluate(max_rate):
+        def run(subsets):
+            scores = [table[tuple(s)][0] for s in subsets]
+            ratios = [np.full((4, 1), table[tuple(s)][1]) for s in subsets]
+            return search_values(scores, ratios, max_rate).tolist()
+
+        return run
+
+    by_score = greedy_forward(evaluate(None), 3)
+    identified = greedy_forward(evaluate(0.5), 3)
+    assert (0, 1) in by_score and (1, 2) not in by_score
+    assert (1, 2) in identified
+
+
+def test_max_warning_rate_reranks_the_same_analysis():
+    """The bound changes which subset is best, not what is computed: the
+    same scores and rates, ``identified_`` those within it, the best of
+    them first; none within it warns; a rate outside [0, 1] is refused."""
+    from skmba.datasets import make_cantilever
+    from skmba.exceptions import NonIdentifiabilityWarning
+
+    data = make_cantilever(
+        40,
+        responses=("tip_displacement", "mid_displacement", "tip_rotation"),
+        random_state=0,
+    )
+    X = np.hstack([data.X_sim, data.theta_sim])
+
+    def fit(rate):
+        return PreposteriorDesigner(
+            data.prior,
+            calibrator=ModularBayesCalibrator(n_restarts_optimizer=0),
+            discrepancy_uncertainty="propagate",
+            n_design=8,
+            n_mc=10,
+            random_state=0,
+            max_warning_rate=rate,
+        ).fit(X, data.y_sim)
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        plain = fit(None)
+    largest = plain.warning_rate_.max(axis=1)
+    bound = float(np.median(largest))
+    assert largest.min() <= bound < largest.max()  # some in, some out
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        bounded = fit(bound)
+    np.testing.assert_array_equal(bounded.scores_, plain.scores_)
+    np.testing.assert_array_equal(bounded.warning_rate_, plain.warning_rate_)
+    np.testing.assert_array_equal(bounded.identified_, largest <= bound)
+    assert plain.identified_.all()
+    inside = np.flatnonzero(bounded.identified_)
+    best = bounded.subsets_[inside[np.argmin(bounded.scores_[inside])]]
+    assert bounded.best_subset_ == best
+    table = bounded.summary()
+    n_in = int(bounded.identified_.sum())
+    assert table["identified"].iloc[:n_in].all()
+    assert not table["identified"].iloc[n_in:].any()
+    assert np.all(np.diff(table["score"].iloc[:n_in]) >= 0)
+    with pytest.warns(NonIdentifiabilityWarning, match="No scored subset"):
+        none = fit(largest.min() / 2)
+    assert none.best_subset_ == plain.best_subset_
+    with pytest.raises(ValueError, match=r"max_warning_rate must be .* in \[0, 1\]"):
+        fit(1.5)
