@@ -54,6 +54,7 @@ from skmba.plotting._sensor_design import (
     plot_convergence,
     plot_criterion_by_size,
     plot_criterion_vs_bias,
+    plot_warning_rate,
 )
 from skmba.plotting._traces import plot_traces
 
@@ -67,4 +68,5 @@ __all__ = [
     "plot_posterior",
     "plot_theta_history",
     "plot_traces",
+    "plot_warning_rate",
 ]

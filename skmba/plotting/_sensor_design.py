@@ -2,9 +2,11 @@
 
 :func:`plot_criterion_by_size` (best and worst criterion per number of
 sensors, thesis Fig. 6.7a), :func:`plot_criterion_vs_bias` (criterion
-against identification bias, Figs. 6.3, 6.4, 6.6) and
+against identification bias, Figs. 6.3, 6.4, 6.6),
 :func:`plot_convergence` (running criterion over the Monte Carlo loop,
-Fig. 6.5), from a fitted :class:`~skmba.PreposteriorDesigner`.
+Fig. 6.5) and :func:`plot_warning_rate` (criterion against the predicted
+rate of the calibrator's identifiability warning), from a fitted
+:class:`~skmba.PreposteriorDesigner`.
 
 Examples
 --------
@@ -30,7 +32,12 @@ from skmba.plotting._common import (
     single_axes,
 )
 
-__all__ = ["plot_convergence", "plot_criterion_by_size", "plot_criterion_vs_bias"]
+__all__ = [
+    "plot_convergence",
+    "plot_criterion_by_size",
+    "plot_criterion_vs_bias",
+    "plot_warning_rate",
+]
 
 # The most configurations plot_convergence draws by default.
 _MAX_CURVES = 5
@@ -248,6 +255,82 @@ def plot_convergence(designer, *, subsets=None, names=None, ax=None):
     return ax
 
 
+def plot_warning_rate(designer, *, parameter=None, names=None, ax=None):
+    """Scatter the preposterior criterion against the predicted warning rate.
+
+    Each point is a scored sensor subset: its criterion (``scores_``, lower
+    is better) against the share of replicates on which the calibrator's
+    :class:`~skmba.exceptions.NonIdentifiabilityWarning` would name a
+    parameter (``warning_rate_``; the largest over the parameters unless
+    ``parameter`` picks one), with bars of two Monte Carlo standard errors
+    (``warning_rate_mcse_``). A low criterion on the right is a precise
+    interval the data cannot vouch for; the subsets worth installing sit
+    at the bottom left. With the designer's ``max_warning_rate`` a dashed
+    line marks it; the best subset overall and ``best_subset_`` are
+    labelled.
+
+    Parameters
+    ----------
+    designer : PreposteriorDesigner
+        Fitted (``subsets_``, ``scores_``, ``warning_rate_``,
+        ``warning_rate_mcse_``, ``best_subset_``).
+    parameter : int or str, default=None
+        The parameter whose rate to plot (index, or name from the prior);
+        None plots the largest rate over the parameters.
+    names : list of str, default=None
+        Names of the ``q`` responses; None takes the designer's
+        ``response_names_`` when it has them, else ``y0, y1, ...``.
+    ax : Axes, default=None
+        Where to draw; None creates a figure.
+
+    Returns
+    -------
+    ax : Axes
+
+    Examples
+    --------
+    >>> import matplotlib
+    >>> matplotlib.use("Agg")
+    >>> from types import SimpleNamespace
+    >>> import numpy as np
+    >>> from skmba.plotting import plot_warning_rate
+    >>> designer = SimpleNamespace(
+    ...     subsets_=[(0,), (1,), (0, 1)], scores_=np.array([0.5, 0.3, 0.1]),
+    ...     n_responses_=2, warning_rate_=np.array([[0.5], [0.25], [0.75]]),
+    ...     warning_rate_mcse_=np.array([[0.25], [0.2], [0.2]]),
+    ...     best_subset_=(1,), max_warning_rate=0.3)
+    >>> ax = plot_warning_rate(designer, names=["A", "B"])
+    >>> sorted(t.get_text() for t in ax.texts)
+    ['A, B (lowest criterion)', 'B (best_subset_)']
+    """
+    extra = ("warning_rate_", "warning_rate_mcse_", "best_subset_")
+    subsets, scores, q = _designer_arrays(designer, extra)
+    names = _response_names(designer, names, q)
+    rate, mcse, label = _rates_of(designer, parameter, len(subsets))
+    ax = single_axes(ax, (6.4, 4.6))
+    ax.errorbar(rate, scores, xerr=2 * mcse, fmt="none", ecolor="0.6", lw=0.8, zorder=1)
+    _scatter_by_size(ax, rate, scores, subsets)
+    bound = getattr(designer, "max_warning_rate", None)
+    if bound is not None:
+        ax.axvline(bound, color="k", ls="--", lw=1, label="max_warning_rate")
+    marks = {subsets[int(np.argmin(scores))]: ["lowest criterion"]}
+    marks.setdefault(tuple(designer.best_subset_), []).append("best_subset_")
+    for subset, texts in marks.items():
+        k = subsets.index(subset)
+        ax.annotate(
+            f"{_subset_label(subset, names)} ({', '.join(texts)})",
+            (rate[k], scores[k]),
+            xytext=(4, 4),
+            textcoords="offset points",
+            fontsize="x-small",
+        )
+    ax.set_xlim(-0.05, 1.05)
+    ax.set_xlabel(f"predicted warning rate{label}")
+    ax.set_ylabel(_criterion_label(designer))
+    ax.legend(fontsize="small")
+    return ax
+
+
 def _response_names(designer, names, q):
     """The ``q`` response labels: ``names``, the designer's
     ``response_names_`` when it has them, or ``y0, y1, ...``."""
@@ -431,3 +514,32 @@ def _indices_of(subsets, evaluated):
             )
         chosen.append(lookup[key])
     return chosen
+
+
+def _rates_of(designer, parameter, n_subsets):
+    """The warning rate to plot per subset, its standard error and the axis
+    label's suffix: of ``parameter`` (index or prior name), or the largest
+    over the parameters with the error of that one."""
+    rate = np.asarray(designer.warning_rate_, dtype=float).reshape(n_subsets, -1)
+    mcse = np.asarray(designer.warning_rate_mcse_, dtype=float).reshape(rate.shape)
+    r = rate.shape[1]
+    if parameter is None:
+        pick = np.argmax(rate, axis=1)
+        suffix = "" if r == 1 else " (largest over the parameters)"
+    else:
+        prior = getattr(designer, "prior_", None)
+        given = list(getattr(prior, "names", None) or [])
+        if isinstance(parameter, str) and parameter in given:
+            j = given.index(parameter)
+        elif isinstance(parameter, (int, np.integer)) and 0 <= parameter < r:
+            j = int(parameter)
+        else:
+            choices = given or list(range(r))
+            raise ValueError(
+                f"parameter must be one of {choices} (a 0-based index or a "
+                f"name of the prior), got {parameter!r}."
+            )
+        pick = np.full(n_subsets, j)
+        suffix = f" of {given[j] if given else f'θ{j}'}"
+    rows = np.arange(n_subsets)
+    return rate[rows, pick], mcse[rows, pick], suffix

@@ -14,7 +14,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 from matplotlib.axes import Axes
-from matplotlib.collections import PathCollection, QuadMesh
+from matplotlib.collections import LineCollection, PathCollection, QuadMesh
 from matplotlib.figure import Figure
 from scipy import stats
 from sklearn.exceptions import NotFittedError
@@ -29,6 +29,7 @@ from skmba.plotting import (
     plot_gp_prediction,
     plot_posterior,
     plot_traces,
+    plot_warning_rate,
 )
 
 
@@ -116,6 +117,7 @@ def test_public_names():
         "plot_posterior",
         "plot_theta_history",
         "plot_traces",
+        "plot_warning_rate",
     ]
     for name in skmba.plotting.__all__:
         assert getattr(skmba.plotting, name).__module__.startswith("skmba.plotting.")
@@ -561,6 +563,57 @@ def test_criterion_vs_bias_errors(designer):
         plot_criterion_vs_bias([1.0, 2.0], [0.1, 0.2], subsets=[(0,)])
     with pytest.raises(TypeError, match="arrays of numbers"):
         plot_criterion_vs_bias(["x"], [0.1])
+
+
+def test_warning_rate(designer):
+    """Each subset at (its largest warning rate, its score), with bars of
+    two standard errors; the bound, the lowest criterion and the best
+    subset marked; one parameter by name or index."""
+    n = len(designer.subsets_)
+    rng = np.random.default_rng(1)
+    rate = np.round(rng.random((n, 2)) * 10) / 10
+    mcse = np.sqrt(rate * (1 - rate) / 10)
+    best = int(np.argmin(np.where(rate.max(axis=1) <= 0.5, designer.scores_, np.inf)))
+    fitted = SimpleNamespace(
+        **vars(designer),
+        warning_rate_=rate,
+        warning_rate_mcse_=mcse,
+        best_subset_=designer.subsets_[best],
+        max_warning_rate=0.5,
+        prior_=SimpleNamespace(names=["E", "k"]),
+    )
+    ax = plot_warning_rate(fitted, names=list("ABCDEFG"))
+    groups = [c for c in ax.collections if isinstance(c, PathCollection)]
+    points = np.concatenate([g.get_offsets() for g in groups])
+    sizes = [len(s) for s in designer.subsets_]
+    order = np.argsort(sizes, kind="stable")
+    np.testing.assert_allclose(points, np.c_[rate.max(axis=1), designer.scores_][order])
+    (bars,) = [c for c in ax.collections if isinstance(c, LineCollection)]
+    k = int(np.argmax(mcse.max(axis=1)))
+    j = int(np.argmax(rate[k]))
+    width = np.ptp(bars.get_segments()[k][:, 0])
+    np.testing.assert_allclose(width, 4 * mcse[k, j])
+    assert ax.lines[0].get_xdata()[0] == 0.5
+    assert "max_warning_rate" in legend_texts(ax)
+    texts = sorted(t.get_text() for t in ax.texts)
+    lowest = designer.subsets_[int(np.argmin(designer.scores_))]
+    assert texts == sorted(
+        [
+            ", ".join("ABCDEFG"[i] for i in lowest) + " (lowest criterion)",
+            ", ".join("ABCDEFG"[i] for i in fitted.best_subset_) + " (best_subset_)",
+        ]
+    )
+    assert ax.get_xlabel() == "predicted warning rate (largest over the parameters)"
+    for parameter in ("k", 1):
+        ax = plot_warning_rate(fitted, parameter=parameter)
+        groups = [c for c in ax.collections if isinstance(c, PathCollection)]
+        points = np.concatenate([g.get_offsets() for g in groups])
+        np.testing.assert_allclose(points[:, 0], rate[order, 1])
+        assert ax.get_xlabel() == "predicted warning rate of k"
+    with pytest.raises(ValueError, match=r"parameter must be one of \['E', 'k'\]"):
+        plot_warning_rate(fitted, parameter="I")
+    with pytest.raises(TypeError, match="warning_rate_"):
+        plot_warning_rate(designer)
 
 
 def test_convergence(designer):
