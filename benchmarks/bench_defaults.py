@@ -16,6 +16,11 @@ first, then with a reference configuration:
   reference ``16 draws``, ``discrepancy_tol=None`` (module 2's 16 draws,
   the default before, whose sd moved with ``random_state``).
 
+- **sensor design** (``PreposteriorDesigner(prior)`` with its defaults:
+  the cantilever's five candidate responses, all 31 subsets, 54
+  simulations, 25 design points, 100 replicates, serial); reference
+  ``designer, n_jobs=2``.
+
 Per configuration, in a fresh Python process each (``--one`` runs one):
 
 - ``cold``: the first ``fit`` of the process (imports and BLAS start-up
@@ -24,32 +29,60 @@ Per configuration, in a fresh Python process each (``--one`` runs one):
 - MCMC: the draws kept per chain, the smallest bulk and tail ESS and the
   largest R-hat of the warm fit, and the ESS per second; quadrature: the
   module-2 draws and the largest Monte Carlo error of theta's mean and sd
-  in posterior sds (NaN when it is not estimated).
+  in posterior sds (NaN when it is not estimated); the designer: its best
+  subset;
+- for the two-parameter defaults, a third fit under ``cProfile``: the
+  share of its time outside LAPACK and BLAS (:func:`_outside_blas`). The
+  profiler charges a matrix product written ``A @ B`` to the Python
+  function that wrote it, and adds its own cost per Python call, so the
+  share is an upper bound.
 
 The machine's CPUs and BLAS thread settings are printed first, each
-reference's ratio last. Run with ``python benchmarks/bench_defaults.py``
-(about 3 minutes on two cores).
+reference's ratio and every first-to-warm ratio last. Run with ``python
+benchmarks/bench_defaults.py`` (about 6 minutes on two cores).
 """
 
 import argparse
+import cProfile
 import json
 import math
 import os
+import pstats
 import subprocess
 import sys
 import time
 import warnings
 
-TWO, ONE = "two parameters", "one parameter"
-#: name: (set-up, calibrator parameters); each set-up's defaults first.
+TWO, ONE, DESIGN = "two parameters", "one parameter", "sensor design"
+#: name: (set-up, estimator parameters); each set-up's defaults first.
 CONFIGS = {
     "defaults": (TWO, {}),
     "full length": (TWO, {"target_ess": None}),
     "defaults, one parameter": (ONE, {}),
     "16 draws": (ONE, {"discrepancy_tol": None}),
+    "designer defaults": (DESIGN, {}),
+    "designer, n_jobs=2": (DESIGN, {"n_jobs": 2}),
 }
 #: The ratios printed: (configuration, its reference).
-RATIOS = (("defaults", "full length"), ("defaults, one parameter", "16 draws"))
+RATIOS = (
+    ("defaults", "full length"),
+    ("defaults, one parameter", "16 draws"),
+    ("designer defaults", "designer, n_jobs=2"),
+)
+#: The configurations fitted a third time under the profiler.
+PROFILED = ("defaults",)
+#: The cantilever's five candidate responses (the designer's set-up).
+RESPONSES = (
+    "tip_displacement",
+    "energy",
+    "tip_rotation",
+    "mid_displacement",
+    "quarter_displacement",
+)
+#: Where LAPACK and BLAS work is called from: numpy's and scipy's linear
+#: algebra modules, and numpy's product built-ins.
+LINALG_FILES = ("numpy/linalg/", "scipy/linalg/")
+PRODUCTS = ("einsum", "matmul", "dot", "inner", "vdot", "tensordot")
 
 
 def _data(setup):
@@ -57,15 +90,20 @@ def _data(setup):
 
     if setup == ONE:
         return make_cantilever(random_state=0)
+    if setup == DESIGN:
+        return make_cantilever(54, responses=RESPONSES, random_state=0)
     return make_cantilever(
         n_simulations=170, n_observations=70, parameters=("E", "I"), random_state=0
     )
 
 
 def _figures(cal):
-    """What the warm fit reached: MCMC diagnostics or quadrature errors."""
+    """What the warm fit reached: MCMC diagnostics, quadrature errors or the
+    designer's best subset."""
     from skmba.mcmc._diagnostics import ess_tail
 
+    if hasattr(cal, "best_subset_"):
+        return {"best": [int(k) for k in cal.best_subset_]}
     chains = getattr(cal, "theta_chains_", None)
     if chains is None:
         sd = math.sqrt(cal.theta_cov_[0, 0])
@@ -82,31 +120,68 @@ def _figures(cal):
     }
 
 
+def _estimator_and_fit(setup, params, data):
+    """A fresh estimator of the set-up and how to fit it to ``data``."""
+    from skmba import ModularBayesCalibrator, PreposteriorDesigner
+
+    if setup == DESIGN:
+        import numpy as np
+
+        X = np.hstack([data.X_sim, data.theta_sim])
+        est = PreposteriorDesigner(data.prior, random_state=0, **params)
+        return est, lambda: est.fit(X, data.y_sim)
+    cal = ModularBayesCalibrator(prior=data.prior, random_state=0, **params)
+    return cal, lambda: cal.fit(
+        data.X_obs,
+        data.y_obs,
+        X_sim=data.X_sim,
+        theta_sim=data.theta_sim,
+        y_sim=data.y_sim,
+    )
+
+
+def _outside_blas(stats):
+    """The share of a profile's time spent outside LAPACK and BLAS: one
+    minus the own time of the functions of :data:`LINALG_FILES` and of
+    numpy's product built-ins (:data:`PRODUCTS`), over the total."""
+    inside = total = 0.0
+    for (filename, _, function), (_, _, own, _, _) in stats.stats.items():
+        total += own
+        path = filename.replace(os.sep, "/")
+        if any(part in path for part in LINALG_FILES) or (
+            filename == "~" and any(p in function for p in PRODUCTS)
+        ):
+            inside += own
+    return 1.0 - inside / total
+
+
 def _one(name):
-    """Fit the configuration ``name`` twice in this (fresh) process; print
-    one JSON line."""
+    """Fit the configuration ``name`` twice in this (fresh) process (three
+    times, the last profiled, for :data:`PROFILED`); print one JSON line."""
     started = time.perf_counter()
-    from skmba import ModularBayesCalibrator
+    import skmba  # noqa: F401  (the import is timed)
 
     imports = time.perf_counter() - started
     setup, params = CONFIGS[name]
     data = _data(setup)
     times = []
     for _ in range(2):
-        cal = ModularBayesCalibrator(prior=data.prior, random_state=0, **params)
+        est, fit = _estimator_and_fit(setup, params, data)
         t0 = time.perf_counter()
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            cal.fit(
-                data.X_obs,
-                data.y_obs,
-                X_sim=data.X_sim,
-                theta_sim=data.theta_sim,
-                y_sim=data.y_sim,
-            )
+            fit()
         times.append(time.perf_counter() - t0)
     out = {"imports": imports, "cold": times[0] + imports, "warm": times[1]}
-    print(json.dumps({**out, **_figures(cal)}))
+    out.update(_figures(est))
+    if name in PROFILED:
+        _, fit = _estimator_and_fit(setup, params, data)
+        profiler = cProfile.Profile()
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            profiler.runcall(fit)
+        out["outside"] = _outside_blas(pstats.Stats(profiler))
+    print(json.dumps(out))
 
 
 def _line(name, r):
@@ -114,11 +189,18 @@ def _line(name, r):
         f"{name}: cold {r['cold']:.1f} s (imports {r['imports']:.1f} s), warm "
         f"{r['warm']:.1f} s; "
     )
+    if "best" in r:
+        return head + f"best subset {tuple(r['best'])}"
     if "ess" in r:
+        outside = (
+            f"; outside LAPACK and BLAS (profiled, at most) {r['outside']:.0%}"
+            if "outside" in r
+            else ""
+        )
         return head + (
             f"{r['draws']} draws per chain, smallest bulk ESS {r['ess']:.0f}, "
             f"tail ESS {r['tail']:.0f}, largest R-hat {r['rhat']:.4f}; "
-            f"{r['ess'] / r['warm']:.0f} ESS/s"
+            f"{r['ess'] / r['warm']:.0f} ESS/s{outside}"
         )
     return head + (
         f"{r['draws']} module-2 draws, Monte Carlo error of theta's mean and sd "
@@ -153,6 +235,8 @@ def main():
             f"{name} / {reference}: cold {d['cold'] / f['cold']:.2f}, warm "
             f"{d['warm'] / f['warm']:.2f}"
         )
+    firsts = ", ".join(f"{n} {r['cold'] / r['warm']:.2f}" for n, r in results.items())
+    print(f"first fit / warm fit: {firsts}")
 
 
 if __name__ == "__main__":
