@@ -253,6 +253,7 @@ def test_designer_summary_ranks_the_subsets(designer):
         "score",
         "mcse",
         "warning_rate[theta0]",
+        "warning_rate_mcse[theta0]",
     ]
     assert table["score"].is_monotonic_increasing
     order = np.argsort(designer.scores_, kind="stable")
@@ -260,6 +261,9 @@ def test_designer_summary_ranks_the_subsets(designer):
     np.testing.assert_array_equal(table["mcse"], designer.scores_mcse_[order])
     np.testing.assert_array_equal(
         table["warning_rate[theta0]"], designer.warning_rate_[order, 0]
+    )
+    np.testing.assert_array_equal(
+        table["warning_rate_mcse[theta0]"], designer.warning_rate_mcse_[order, 0]
     )
     best = ", ".join(f"y{k}" for k in designer.best_subset_)
     assert table["subset"].iloc[0] == best
@@ -277,6 +281,7 @@ def test_designer_summary_names_and_no_pandas(designer, no_pandas):
         "score",
         "mcse",
         "warning_rate[theta0]",
+        "warning_rate_mcse[theta0]",
     )
     assert "tip, energy, rotation" in list(table["subset"])
     assert list(table["rank"]) == list(range(1, 8))
