@@ -254,7 +254,7 @@ def _regridded(draws, grids, prior, evaluate, change):
     return grids, _Draws(draws.V, draws.log_w, draws.block, L, F)
 
 
-def _tolerances(tol):
+def tolerances(tol):
     """The tolerance of the mean, sd and interval ends, in posterior sds."""
     return tol * np.array([1.0, 1.0, END_TOLERANCE, END_TOLERANCE])
 
@@ -277,42 +277,51 @@ def _sample(grid, w, n_samples, seed):
     return np.interp(u, density_cdf(w, grid), grid.nodes)[:, None]
 
 
-def _rule_pairs(A, grid, seed):
+def rule_pairs(A, nodes, seed):
     """Module 4's pairs: :data:`N_RULE_PAIRS` systematic draws of (node,
-    draw of phi) from their joint posterior, merged with their counts."""
+    draw of phi) from their joint posterior ``A`` (J, K), merged with their
+    counts: the nodes' rows of ``nodes`` (J, r), the draws' indices and the
+    pairs' weights."""
     W = np.exp(A - special.logsumexp(A)).ravel()
     rng = np.random.default_rng(seed)
     u = (np.arange(N_RULE_PAIRS) + rng.uniform()) / N_RULE_PAIRS
     picked = np.minimum(np.searchsorted(np.cumsum(W), u), len(W) - 1)
     flat, counts = np.unique(picked, return_counts=True)
     j, k = np.unravel_index(flat, A.shape)
-    return grid.nodes[j][:, None], k, counts / counts.sum()
+    return nodes[j], k, counts / counts.sum()
 
 
 def _result(module2, evaluate, draws, grid, proposal, errors, n_samples, seeds):
     """The mixture's draws, theta's posterior on the fine ``grid`` and
     module 4's pairs."""
     _, _, w, A = errors
-    marginal = _marginal_weights(A)
-    components = evaluate.components(draws.V)  # built while evaluating
-    noise = marginal @ np.array([c.noise for c in components])
-    hyper = HyperposteriorDraws(
-        module2.mode,
-        components,
-        draws.log_w - special.logsumexp(draws.log_w),
-        proposal[2],
-        noise,
-        float(1.0 / np.sum(marginal**2)),
-        draws.V,
-        proposal[1],
-        evaluate.space,
-    )
+    hyper = mixture_draws(module2, evaluate, draws.V, draws.log_w, proposal, A)
     samples = _sample(grid, w, n_samples, seeds[0])
     posterior = PosteriorResult.from_rule(
         samples, grid.nodes[:, None], w, (grid.nodes[0], grid.nodes[-1])
     )
-    rule = _rule_pairs(A, grid, seeds[1])
+    rule = rule_pairs(A, grid.nodes[:, None], seeds[1])
     return hyper, posterior, rule
+
+
+def mixture_draws(module2, evaluate, V, log_w, proposal, A):
+    """Module 3's mixture over the draws ``V`` of ``phi`` (importance log
+    weights ``log_w``, from ``proposal``), with the noise variances'
+    posterior mean under their marginal weights in the joint ``A``."""
+    marginal = marginal_weights(A)
+    components = evaluate.components(V)  # built while evaluating
+    noise = marginal @ np.array([c.noise for c in components])
+    return HyperposteriorDraws(
+        module2.mode,
+        components,
+        log_w - special.logsumexp(log_w),
+        proposal[2],
+        noise,
+        float(1.0 / np.sum(marginal**2)),
+        V,
+        proposal[1],
+        evaluate.space,
+    )
 
 
 def _block_errors(draws, grid):
@@ -385,11 +394,11 @@ def converge(
             continue
         if change is None:
             pooled, se = errors[:2]
-            relative = float(np.max(se / _tolerances(tol)) * tol / pooled[1])
+            relative = float(np.max(se / tolerances(tol)) * tol / pooled[1])
             _say_errors(say, draws, grids, se / pooled[1], tol)
             first_round = not adapted and n_blocks == MIN_BLOCKS
-            if first_round and _kish_share(errors[3]) < ADAPT_SHARE:
-                proposal, adapted = _adapted(proposal, draws, errors[3]), True
+            if first_round and kish_share(errors[3]) < ADAPT_SHARE:
+                proposal, adapted = adapted(proposal, draws, errors[3]), True
                 say("module 2: the proposal refitted to the first draws' weights")
                 draws, n_blocks, checked = None, 1, None
                 continue
@@ -424,30 +433,30 @@ def converge(
     error = MonteCarloError(
         *map(float, se), len(draws.log_w), hyper.noise_ess, relative <= tol
     )
-    _warn_unmet(error, se / pooled[1], tol, spline)
+    warn_unmet(error, se / pooled[1], tol, spline)
     return ConvergedIntegral(hyper, posterior, error, *rule)
 
 
-def _marginal_weights(A):
+def marginal_weights(A):
     """Each draw's posterior weight: its joint log weights (J, K) summed
     over theta, normalised."""
     Z = special.logsumexp(A, axis=0)
     return np.exp(Z - special.logsumexp(Z))
 
 
-def _kish_share(A):
+def kish_share(A):
     """Kish's effective sample size of the draws over their number."""
-    W = _marginal_weights(A)
+    W = marginal_weights(A)
     return float(1.0 / np.sum(W**2)) / len(W)
 
 
-def _adapted(proposal, draws, A):
+def adapted(proposal, draws, A):
     """The proposal moved toward the draws' weighted mean and covariance,
     each weighed against the old one by the draws' Kish effective size
     against ``2 (m + 1)`` (a few effective draws barely move it), the same
     inflation and defensive mixture."""
     space, mode, inflated = proposal
-    W = _marginal_weights(A)
+    W = marginal_weights(A)
     ess, prior_size = 1.0 / np.sum(W**2), 2.0 * (len(mode) + 1)
     share = ess / (ess + prior_size)
     mean = W @ draws.V
@@ -483,7 +492,7 @@ def _say_errors(say, draws, grids, relative, tol):
     )
 
 
-def _warn_unmet(error, relative, tol, spline):
+def warn_unmet(error, relative, tol, spline):
     """The warnings of a tolerance not reached: Monte Carlo, spline."""
     if not error.converged:
         warn(
