@@ -34,6 +34,8 @@ file                               holds
                                    (``discrepancy_uncertainty="propagate"``)
 ``_module2_converged.py``          the hyperparameters integrated out to a
                                    stated error (``discrepancy_tol``)
+``_module2_converged_nodes.py``    the same with several parameters, theta
+                                   at weighted importance nodes
 ``_module2_theta_grid.py``         theta's grids for it: the likelihood
                                    evaluated coarsely, splined finely
 ``_module3_likelihood.py``         module 3: the global model (Eq. 4.30),

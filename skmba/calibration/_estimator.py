@@ -174,12 +174,13 @@ class ModularBayesCalibrator(
         Table 6.2; ``"variance"`` is the diagonal of Sigma_d, its lower end
         each response's own part of the discrepancy).
     discrepancy_tol : "auto", float or None, default="auto"
-        With "propagate" and one parameter: integrate the hyperparameters
-        out until the Monte Carlo errors of theta's posterior mean and sd
-        are below this many posterior sds (the 95 % ends: twice that), in
-        blocks of 128 draws, at most 4096; reported by ``summary()``.
-        "auto": 0.05, reproducible whatever ``random_state`` (User Guide);
-        16 draws with several parameters. None: 16 draws, moving with it.
+        With "propagate": integrate the hyperparameters out until the Monte
+        Carlo errors of theta's posterior mean and sd are below this many
+        posterior sds (the 95 % ends: twice that), in blocks of 128 draws,
+        at most 4096; theta on a grid (one parameter) or at weighted
+        importance nodes (several); reported by ``summary()``. "auto": 0.05
+        with one parameter, reproducible whatever ``random_state`` (User
+        Guide); 16 draws with several. None: 16 draws, moving with it.
     estimand : {"physical", "best_fit"}, default="physical"
         What theta's posterior (``theta_samples_``, ``theta_mean_``,
         ``theta_cov_``, ``theta_mcse_``, ``summary()``) is of. "physical":

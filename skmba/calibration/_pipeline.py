@@ -31,7 +31,7 @@ True
 
 import time
 from dataclasses import dataclass
-from functools import cached_property
+from functools import cached_property, partial
 
 import numpy as np
 
@@ -46,6 +46,7 @@ from skmba.calibration._module2_converged import (
     MAX_DRAWS,
     converge,
 )
+from skmba.calibration._module2_converged_nodes import converge_nodes
 from skmba.calibration._module2_plug_in import fit_discrepancy
 from skmba.calibration._module2_posterior import (
     HyperposteriorDraws,
@@ -365,14 +366,14 @@ def _tolerance(inputs):
     :data:`AUTO_MAX_ENTRIES` field entries); a warning when it is set to a
     number but cannot apply."""
     tol, sampler = inputs.settings.discrepancy_tol, _sampler(inputs)
-    if tol is None or sampler != "quadrature":
+    several = inputs.prior.dim > 1
+    if tol is None or (sampler != "quadrature" and not (several and tol != "auto")):
         if tol not in (None, "auto"):
             warn(
-                f"discrepancy_tol={tol:g} is not applied: it needs one "
-                f"calibration parameter and its quadrature (here "
-                f'{inputs.prior.dim} parameter(s), sampler "{sampler}"); '
-                "module 3 mixes 16 draws of the hyperparameters instead, and "
-                "theta_mcse_ is NaN.",
+                f"discrepancy_tol={tol:g} is not applied: it needs several "
+                f"calibration parameters, or one with its quadrature (here "
+                f'one, sampler "{sampler}"); module 3 mixes 16 draws of the '
+                "hyperparameters instead, and theta_mcse_ is NaN.",
                 UserWarning,
             )
         return None
@@ -400,19 +401,21 @@ def _converged(inputs, module2, first, tol, seed):
     )
     (n, _), q = inputs.Xs.shape, inputs.Ys.shape[1]
     check_global_memory(inputs.emulator.N, n, q, base.P, 1, MAX_DRAWS)
-    result = converge(
+    log_post = LogPosterior(inputs.prior, base, inputs.scaler, inputs.sims.theta)
+    if inputs.prior.dim > 1:
+        integrate = partial(converge_nodes, log_post=log_post)
+    else:
+        integrate = partial(converge, scaler=inputs.scaler, prior=inputs.prior)
+    result = integrate(
         module2,
         base,
-        inputs.scaler,
-        inputs.prior,
-        first,
+        first=first,
         tol=tol,
         n_samples=settings.sampler.n_samples,
         random_state=seed,
         say=inputs.progress.info,
     )
-    model = ModelMixture(base, result.draws)
-    log_post = LogPosterior(inputs.prior, model, inputs.scaler, inputs.sims.theta)
+    log_post = log_post.with_model(ModelMixture(base, result.draws))
     rule = PredictionRule(result.rule_thetas, result.rule_weights, result.rule_draws)
     inputs.progress.info(result.posterior.summary(time.perf_counter() - started))
     return result.draws, Module3Result(log_post, result.posterior, rule, result.error)
@@ -524,7 +527,8 @@ def _mcse(error, r):
     NaN where the integral over the hyperparameters has no estimate."""
     if error is None:
         return np.full((4, r), np.nan)
-    return np.array([[error.mean], [error.sd], [error.lower], [error.upper]])
+    rows = (error.mean, error.sd, error.lower, error.upper)
+    return np.array([np.broadcast_to(row, (r,)) for row in rows], dtype=float)
 
 
 def fitted_attributes(result):

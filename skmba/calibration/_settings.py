@@ -160,7 +160,8 @@ class CalibrationSettings:
     discrepancy_tol : "auto", float or None
         Monte Carlo tolerance of the integral over module 2's
         hyperparameters, in posterior sds of theta; None: module 2's 16
-        draws; "auto": 0.05 where it applies, else 16 draws.
+        draws; "auto": 0.05 where it applies (one parameter), else 16
+        draws; a number applies with any number of parameters.
     estimand : {"physical", "best_fit"}
         What theta's posterior is of (:mod:`~skmba.calibration._best_fit`).
     n_jobs : int or None

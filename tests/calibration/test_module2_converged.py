@@ -272,7 +272,7 @@ def test_tolerance_not_applied_is_said(case):
         prior=case.prior, sampler="mcmc", n_samples=200, burn_in=100,
         discrepancy_tol=0.05,
     )  # fmt: skip
-    with pytest.warns(UserWarning, match="needs one calibration parameter"):
+    with pytest.warns(UserWarning, match="or one with its quadrature"):
         cal.fit(
             case.X, case.y, X_sim=case.X_sim, theta_sim=case.theta_sim, y_sim=case.y_sim
         )
@@ -320,7 +320,7 @@ def test_adapted_proposal_stays_proper_when_one_draw_has_all_the_weight():
     A = np.full((5, 512), -np.inf)
     A[:, 7] = 0.0  # one draw carries the posterior
     old_cov = converged.INFLATION**2 * np.eye(m)
-    space, mode, cov = converged._adapted(
+    space, mode, cov = converged.adapted(
         ("space", np.zeros(m), old_cov), SimpleNamespace(V=V), A
     )
     share = 1.0 / (1.0 + 2 * (m + 1))
