@@ -7,8 +7,9 @@ Two measurements of the calibrator with ``discrepancy_tol`` set (issue 30):
   over the refits (coefficient of variation of the sd, largest distance of
   each end from its mean in posterior sds), against the Monte Carlo errors
   the fits report (``theta_mcse_``), the draws and the time;
-- ``--reference``: each (case, seed) row of
-  ``validation/results/joint_reference/joint_reference.csv`` fitted with
+- ``--reference``: each (case, seed, parameter) row of
+  ``validation/results/joint_reference/joint_reference.csv`` (``--reference-csv``
+  for another) fitted with
   ``random_state=seed`` (the reference's emulator): its posterior sd and
   mean against the joint-MCMC reference's.
 
@@ -34,6 +35,7 @@ import threadpoolctl
 from joblib import Parallel, delayed
 
 from skmba import ModularBayesCalibrator
+from skmba.calibration._module2_converged_nodes import weighted_quantiles
 from validation.suite import registry
 
 REFERENCE = (
@@ -55,24 +57,39 @@ def fit_summary(name, seed, random_state, tol):
         ).fit(
             case.X, case.y, X_sim=case.X_sim, theta_sim=case.theta_sim, y_sim=case.y_sim
         )
-    ends = np.quantile(cal.theta_samples_[:, 0], [0.025, 0.975])
+    ends = np.quantile(cal.theta_samples_, [0.025, 0.975], axis=0)
+    if (
+        getattr(cal, "theta_weights_", None) is not None
+        and cal.theta_nodes_.shape[1] > 1
+    ):
+        # several parameters: the weighted nodes' own quantiles, not those
+        # of the resampled draws (which add resampling noise)
+        ends = np.array(
+            [
+                weighted_quantiles(t, cal.theta_weights_, (0.025, 0.975))
+                for t in cal.theta_nodes_.T
+            ]
+        ).T
+    sd = np.sqrt(np.diag(cal.theta_cov_))
     return {
-        "values": np.r_[cal.theta_mean_[0], np.sqrt(cal.theta_cov_[0, 0]), ends],
-        "mcse": cal.theta_mcse_[:, 0],
+        "values": np.vstack([cal.theta_mean_, sd, ends]),  # (4, r)
+        "mcse": cal.theta_mcse_,
         "draws": cal.discrepancy_draws_,
         "seconds": time.perf_counter() - started,
     }
 
 
-def refit_row(name, fits):
-    """The spread over refits of one case's data, in its posterior sds."""
-    values = np.array([f["values"] for f in fits])
+def refit_row(name, fits, j=0):
+    """The spread over refits of one case's data, in its posterior sds, for
+    parameter ``j``."""
+    values = np.array([f["values"][:, j] for f in fits])
     sd = values[:, 1].mean()
     deviation = np.abs(values - values.mean(axis=0)).max(axis=0) / sd
-    reported = np.mean([f["mcse"] for f in fits], axis=0) / sd
+    reported = np.mean([f["mcse"][:, j] for f in fits], axis=0) / sd
     seconds = [f["seconds"] for f in fits]
+    label = name if fits[0]["values"].shape[1] == 1 else f"{name}[{j}]"
     return (
-        f"{name:8s} sd {sd:.5g}  CV of sd {values[:, 1].std(ddof=1) / sd:.3f}  "
+        f"{label:8s} sd {sd:.5g}  CV of sd {values[:, 1].std(ddof=1) / sd:.3f}  "
         f"mean spread {values[:, 0].std(ddof=1) / sd:.3f} sd  ends max dev. "
         f"{deviation[2]:.2f}, {deviation[3]:.2f} sd  reported se (mean, sd, ends) "
         f"{np.array2string(reported, precision=3)}  draws "
@@ -81,14 +98,16 @@ def refit_row(name, fits):
     )
 
 
-def reference_rows():
-    """The (case, seed, reference mean, sd, its error) of the joint reference."""
-    with open(REFERENCE) as handle:
+def reference_rows(path=REFERENCE):
+    """The (case, seed, parameter index, reference mean, sd, its error,
+    16-draw ratio) rows of a joint reference's table."""
+    with open(path) as handle:
         rows = csv.DictReader(line for line in handle if not line.startswith("#"))
         return [
             (
                 r["case"],
                 int(r["seed"]),
+                registry()[r["case"]].parameter_names.index(r["parameter"]),
                 float(r["reference_mean"]),
                 float(r["reference_sd"]),
                 float(r["reference_sd_mcse"]),
@@ -100,12 +119,12 @@ def reference_rows():
 
 def reference_row(row, fit):
     """One fit against the joint reference."""
-    name, seed, mean, sd, mcse, default = row
-    ratio = fit["values"][1] / sd
+    name, seed, j, mean, sd, mcse, default = row
+    ratio = fit["values"][1, j] / sd
     return (
-        f"{name:8s} {seed}  sd ratio {ratio:.3f} (reference's error "
-        f"{mcse / sd:.3f}, reported error {fit['mcse'][1] / sd:.3f}; 16 draws "
-        f"{default:.3f})  |dmean| {abs(fit['values'][0] - mean) / sd:.3f} sd  "
+        f"{name:8s} {seed} [{j}]  sd ratio {ratio:.3f} (reference's error "
+        f"{mcse / sd:.3f}, reported error {fit['mcse'][1, j] / sd:.3f}; 16 draws "
+        f"{default:.3f})  |dmean| {abs(fit['values'][0, j] - mean) / sd:.3f} sd  "
         f"draws {fit['draws']}  {fit['seconds']:.0f} s"
     )
 
@@ -118,6 +137,7 @@ def _parser():
     parser.add_argument(
         "--only", action="store_true", help="with --reference: only --cases"
     )
+    parser.add_argument("--reference-csv", type=Path, default=REFERENCE)
     parser.add_argument("--tol", type=float, default=0.05)
     parser.add_argument("--n-jobs", type=int, default=1)
     return parser
@@ -128,7 +148,11 @@ def main(argv=None):
     run = Parallel(n_jobs=args.n_jobs)
     if args.reference:
         cases = args.cases.split(",") if args.only else None
-        rows = [r for r in reference_rows() if cases is None or r[0] in cases]
+        rows = [
+            r
+            for r in reference_rows(args.reference_csv)
+            if cases is None or r[0] in cases
+        ]
         fits = run(delayed(fit_summary)(r[0], r[1], r[1], args.tol) for r in rows)
         for row, fit in zip(rows, fits, strict=True):
             print(reference_row(row, fit))
@@ -138,7 +162,9 @@ def main(argv=None):
     fits = run(delayed(fit_summary)(n, 0, k, args.tol) for n, k in tasks)
     for name in names:
         pairs = zip(tasks, fits, strict=True)
-        print(refit_row(name, [f for (n, _), f in pairs if n == name]))
+        mine = [f for (n, _), f in pairs if n == name]
+        for j in range(mine[0]["values"].shape[1]):
+            print(refit_row(name, mine, j))
 
 
 if __name__ == "__main__":
