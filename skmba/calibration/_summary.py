@@ -170,6 +170,14 @@ QUADRATURE_NOTE = (
     "a random order, stored as one pseudo-chain. They are not a Markov "
     "chain: R-hat and ESS do not apply."
 )
+#: The same with several parameters (``discrepancy_tol``): weighted nodes.
+NODES_NOTE = (
+    "Posterior of several parameters computed by importance sampling at "
+    "weighted nodes (theta_nodes_, theta_weights_; discrepancy_tol); the "
+    "draws are theta_samples_ (systematically resampled from the nodes, so "
+    "some repeat) in a random order, stored as one pseudo-chain. They are "
+    "not a Markov chain: R-hat and ESS do not apply."
+)
 #: The same for the best-fit estimand's draws.
 BEST_FIT_NOTE = (
     "The best fit: independent joint draws of reality at the field inputs, "
@@ -401,10 +409,17 @@ class CalibrationSummaryMixin:
                 text += f", R-hat {r_hat:.3f}, ESS {ess:.0f}"
             text += f", identifiability {columns['identifiability'][j]:.3g}"
             parts.append(text)
-        method = "MCMC" if hasattr(self, "theta_chains_") else "quadrature"
+        method = "MCMC" if hasattr(self, "theta_chains_") else self._rule_name()
         if getattr(self, "estimand_", "physical") == "best_fit":
             method = f"best fit, reality's posterior by {method}"
         return f"ModularBayesCalibrator ({method}): " + "; ".join(parts)
+
+    def _rule_name(self):
+        """How a fit without chains integrated theta: on a grid (one
+        parameter) or at weighted importance nodes (several)."""
+        nodes = getattr(self, "theta_nodes_", None)
+        several = nodes is not None and np.ndim(nodes) == 2 and nodes.shape[1] > 1
+        return "importance nodes" if several else "quadrature"
 
     def _data_names(self, attribute, prefix, n):
         """Names of the field responses or inputs: recorded ones, else y0, y1..."""
@@ -434,6 +449,8 @@ class CalibrationSummaryMixin:
             chains = np.asarray(self.theta_samples_, dtype=float)[order][np.newaxis]
             stats = None
             attrs = {"sampler": "quadrature (skmba)", "note": QUADRATURE_NOTE}
+            if self._rule_name() != "quadrature":
+                attrs = {"sampler": "importance nodes (skmba)", "note": NODES_NOTE}
             if best_fit:
                 attrs = {"sampler": "best fit (skmba)", "note": BEST_FIT_NOTE}
         mcse = self._mcse(len(names))

@@ -90,6 +90,12 @@ def test_several_parameters_integrate_at_weighted_nodes(case):
     assert np.all(cal.theta_mcse_ > 1e-4 * sd)
     assert cal.discrepancy_draws_ >= nodes.MIN_BLOCKS * nodes.N_BLOCK
     assert np.all(np.isfinite(cal.summary()["mcse_sd"]))
+    assert cal.summary(kind="text").startswith(
+        "ModularBayesCalibrator (importance nodes)"
+    )
+    posterior = cal.to_inference_data().posterior
+    assert posterior.attrs["sampler"] == "importance nodes (skmba)"
+    assert np.isfinite(posterior.attrs["mcse_sd_theta1"])
     again, _ = _fit(case, 0, 0.5)
     np.testing.assert_array_equal(again.theta_weights_, cal.theta_weights_)
     mean, std = cal.predict(case.X[:3], return_std=True)
