@@ -18,6 +18,9 @@ Map:
   earlier SBC runs, ``sbc0_a1``, ``sbc0_a2``);
 - ``sbc_cases.py``: ``sbc_a1``, ``sbc_a2``, everything drawn from the
   default priors;
+- ``continuum_cases.py``: the continuum of discrepancies from a1 to c3 and
+  the larger designs (two inputs, four responses, three parameters) of
+  ``studies/discrepancy_continuum``;
 - ``joint_posterior.py``: the joint posterior of theta and the module-2
   hyperparameters on a fitted calibrator's pieces (the gold standard of
   ``studies/joint_reference``);

@@ -15,7 +15,11 @@ Each module is a script, ``python -m validation.studies.<name> --help``:
 - ``joint_reference``: the default posterior of theta against the joint
   posterior of theta and the module-2 hyperparameters (long MCMC);
 - ``converged_integral``: with ``discrepancy_tol``, the spread of theta's
-  posterior over ``random_state`` and its agreement with that reference.
+  posterior over ``random_state`` and its agreement with that reference;
+- ``discrepancy_continuum``: coverage and the warning along a continuum of
+  discrepancies from a1 to c3 (inside and outside the span of E's
+  sensitivity, 10-50 dB) and on designs with two inputs, four responses
+  and three parameters (cases in :mod:`validation.continuum_cases`).
 
 They take their cases from :func:`validation.suite.registry` (or
 :mod:`validation.cases`) and their statistics from
