@@ -65,38 +65,67 @@ from skmba.mcmc._posterior import PosteriorResult
 N_GROUP = 64
 #: Groups of nodes and blocks of draws before the first check of the error.
 MIN_GROUPS, MIN_BLOCKS = 4, 4
+#: Most refits of the nodes' proposal to their weights.
+NODE_ADAPTATIONS = 3
 #: Most nodes; and most (node, draw) pairs, each a factorisation.
 MAX_NODES, MAX_PAIRS = 2048, 2**20
 
 
 @dataclass(frozen=True)
 class NodeProposal:
-    """A Student-t in the sampling coordinates of theta (``mean``, ``cov``
-    already inflated), with :data:`~skmba.calibration._module2_posterior.
-    PROPOSAL_DF` degrees of freedom."""
+    """A defensive mixture in the sampling coordinates of theta: a
+    Student-t (``mean``, ``cov`` already inflated, :data:`~skmba.calibration.
+    _module2_posterior.PROPOSAL_DF` degrees of freedom) and, with share
+    :data:`~skmba.calibration._module2_converged.PRIOR_SHARE`, the prior of
+    theta itself (``log_post``'s prior carried to its coordinates), so that
+    a first pass that missed the posterior (chains stuck at a bound of the
+    prior) leaves nodes where the posterior is."""
 
     mean: np.ndarray
     cov: np.ndarray
+    log_post: object
 
     @classmethod
-    def around(cls, U, weights=None):
+    def around(cls, log_post, U, weights=None):
         """Fitted to the rows of ``U`` (weighted), inflated by
         :data:`~skmba.calibration._module2_converged.INFLATION`."""
         mean = np.average(U, axis=0, weights=weights)
         cov = np.atleast_2d(np.cov(U, rowvar=False, aweights=weights))
-        return cls(mean, INFLATION**2 * proposal_covariance(cov))
+        return cls(mean, INFLATION**2 * proposal_covariance(cov), log_post)
+
+    def log_prior(self, U):
+        """The prior's log density in the sampling coordinates (the
+        Jacobian of ``u = (log theta - mean) / scale`` or of its linear
+        counterpart included); ``-inf`` outside its support."""
+        lp = self.log_post
+        theta = lp.from_u(U)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out = np.ravel(lp.prior.logpdf(theta)) + np.sum(np.log(lp.u_scale))
+            out = out + np.sum(np.log(theta[:, lp.log_dims]), axis=1)
+        return np.where(np.isnan(out), -np.inf, out)
 
     def draw(self, n, seed):
-        """``n`` scrambled-Halton draws and their log densities."""
+        """``n`` draws (scrambled Halton for the Student-t, the prior's for
+        the rest) and their log densities under the mixture."""
         r = len(self.mean)
-        halton = qmc.Halton(r + 1, scramble=True, seed=np.random.default_rng(seed))
-        u = np.clip(halton.random(n), 1e-12, 1 - 1e-12)
+        t_seed, p_seed = seed.spawn(2)
+        n_prior = round(PRIOR_SHARE * n)
+        halton = qmc.Halton(r + 1, scramble=True, seed=np.random.default_rng(t_seed))
+        u = np.clip(halton.random(n - n_prior), 1e-12, 1 - 1e-12)
         chi2 = stats.chi2.ppf(u[:, r], PROPOSAL_DF)
         z = stats.norm.ppf(u[:, :r]) * np.sqrt(PROPOSAL_DF / chi2)[:, None]
         root = np.linalg.cholesky(self.cov + 1e-12 * np.eye(r))
-        U = self.mean + z @ root.T
+        prior_draws = self.log_post.prior.rvs(
+            n_prior, random_state=np.random.default_rng(p_seed)
+        )
+        prior_u = self.log_post.to_u(np.reshape(prior_draws, (n_prior, r)))
+        U = np.vstack([self.mean + z @ root.T, prior_u])
         t = stats.multivariate_t(self.mean, self.cov, df=PROPOSAL_DF)
-        return U, np.atleast_1d(t.logpdf(U))
+        log_q = np.logaddexp(
+            np.log1p(-PRIOR_SHARE) + np.atleast_1d(t.logpdf(U)),
+            np.log(PRIOR_SHARE) + self.log_prior(U),
+        )
+        return U, log_q
 
 
 class NodeEvaluator(GridEvaluator):
@@ -276,19 +305,23 @@ def _start(evaluate, node_proposal, module2, seeds, say):
     return (space, mode, INFLATION**2 * cov)
 
 
-def _adapted_once(pairs, w, nodes, proposal, say):
-    """After the first round: the nodes' and the draws' proposals refitted
-    to their weights where their Kish share is below
-    :data:`~skmba.calibration._module2_converged.ADAPT_SHARE`, and whether
-    the draws start again."""
+def _adapted(pairs, w, nodes, proposal, rounds, say):
+    """After a first round: the nodes' proposal refitted to their weights
+    where their Kish share is below :data:`~skmba.calibration.
+    _module2_converged.ADAPT_SHARE` (again on the next round, at most
+    :data:`NODE_ADAPTATIONS` times: a first pass stuck at a bound of the
+    prior leaves its nodes far from the posterior, which the prior's share
+    of the nodes finds a step at a time), the draws' proposal likewise
+    (once, as with one parameter). Returns the rounds of adaptation left,
+    both proposals and whether the draws start again."""
     redo = False
     if 1.0 / np.sum(w**2) / len(w) < ADAPT_SHARE:
-        nodes, redo = NodeProposal.around(pairs.U, weights=w), True
+        nodes, redo = NodeProposal.around(nodes.log_post, pairs.U, weights=w), True
         say("module 3: the nodes' proposal refitted to their weights")
-    if kish_share(pairs.A) < ADAPT_SHARE:
+    if rounds == NODE_ADAPTATIONS and kish_share(pairs.A) < ADAPT_SHARE:
         proposal, redo = adapted(proposal, pairs, pairs.A), True
         say("module 2: the proposal refitted to the first draws' weights")
-    return False, nodes, proposal, redo
+    return (rounds - 1 if redo else 0), nodes, proposal, redo
 
 
 def converge_nodes(
@@ -321,18 +354,18 @@ def converge_nodes(
     say = say or (lambda message: None)
     evaluate = NodeEvaluator(base, module2.coordinates, log_post.scaler, log_post)
     node_seed, draw_seed, sample_seed, rule_seed = seed_sequence(random_state).spawn(4)
-    nodes = NodeProposal.around(log_post.to_u(first.samples))
+    nodes = NodeProposal.around(log_post, log_post.to_u(first.samples))
     proposal = _start(evaluate, nodes, module2, node_seed, say)
     r, m = len(nodes.mean), len(proposal[1])
-    n_groups, n_blocks, adapting = MIN_GROUPS, MIN_BLOCKS, True
+    n_groups, n_blocks, rounds = MIN_GROUPS, MIN_BLOCKS, NODE_ADAPTATIONS
     pairs = _empty(r, m)
     while True:
         pairs = _with_blocks(pairs, evaluate, proposal, n_blocks, draw_seed)
         pairs = _with_groups(pairs, evaluate, nodes, n_groups, node_seed)
         pooled, w, se_phi, se_theta = _errors(pairs)
-        if adapting:  # the first round: refit a proposal that missed, once
-            adapting, nodes, proposal, redo = _adapted_once(
-                pairs, w, nodes, proposal, say
+        if rounds > 0:  # the first rounds: refit a proposal that missed
+            rounds, nodes, proposal, redo = _adapted(
+                pairs, w, nodes, proposal, rounds, say
             )
             if redo:
                 pairs = _empty(r, m)
@@ -349,9 +382,9 @@ def converge_nodes(
         if total <= 1.0 or not (room_nodes or room_draws):
             break
         if room_nodes and (part_theta >= part_phi or not room_draws):
-            n_groups = _grown(n_groups, part_theta, cap_groups)
+            n_groups = _grown(n_groups, part_theta, part_phi, cap_groups)
         else:
-            n_blocks = _grown(n_blocks, part_phi, cap_blocks)
+            n_blocks = _grown(n_blocks, part_phi, part_theta, cap_blocks)
     hyper = mixture_draws(module2, evaluate, pairs.V, pairs.log_w, proposal, pairs.A)
     rng = np.random.default_rng(sample_seed)
     picked = np.searchsorted(
@@ -369,11 +402,13 @@ def converge_nodes(
     )
 
 
-def _grown(n, part, cap):
+def _grown(n, part, other, cap):
     """Groups (or blocks) for the next round: as many as the error's decay
-    as ``1 / sqrt(count)`` asks (``part``: its error over the tolerance), at
-    least one more, at most twice as many and ``cap``."""
-    needed = math.ceil(n * part**2) if math.isfinite(part) else 2 * n
+    as ``1 / sqrt(count)`` asks for ``part`` (its error over the tolerance)
+    to leave room for ``other`` (the other integral's; the two add in
+    squares), at least one more, at most twice as many and ``cap``."""
+    room = max(1.0 - other**2, 0.25) if math.isfinite(other) else 0.25
+    needed = math.ceil(n * part**2 / room) if math.isfinite(part) else 2 * n
     return min(max(needed, n + 1), 2 * n, cap)
 
 
