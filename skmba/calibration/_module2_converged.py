@@ -115,13 +115,14 @@ _GRID_CHANGES = 8
 
 @dataclass(frozen=True)
 class MonteCarloError:
-    """Monte Carlo standard errors of a one-parameter posterior summary.
+    """Monte Carlo standard errors of a posterior's summaries.
 
     Attributes
     ----------
-    mean, sd, lower, upper : float
+    mean, sd, lower, upper : float or ndarray of shape (r,)
         Errors of the posterior mean, sd and 95 % interval ends (user
-        units), from the integral over the module-2 hyperparameters.
+        units), from the integral over the module-2 hyperparameters (and,
+        with several parameters, over theta's importance nodes).
     n_draws : int
         Draws of the hyperparameters.
     ess : float
@@ -384,7 +385,7 @@ def converge(
     mode, cov = marginal_laplace(evaluate, grids, module2.mode_coordinates)
     proposal = (space, mode, INFLATION**2 * cov)
     # One block first: the grids are set on it, before more draws need them.
-    draws, n_blocks, changes, checked, adapted = None, 1, 0, None, False
+    draws, n_blocks, changes, checked, refitted = None, 1, 0, None, False
     while True:
         draws = _new_blocks(draws, evaluate, grids, proposal, n_blocks, draw_seed)
         errors = _block_errors(draws, grids.fine)
@@ -396,9 +397,9 @@ def converge(
             pooled, se = errors[:2]
             relative = float(np.max(se / tolerances(tol)) * tol / pooled[1])
             _say_errors(say, draws, grids, se / pooled[1], tol)
-            first_round = not adapted and n_blocks == MIN_BLOCKS
+            first_round = not refitted and n_blocks == MIN_BLOCKS
             if first_round and kish_share(errors[3]) < ADAPT_SHARE:
-                proposal, adapted = adapted(proposal, draws, errors[3]), True
+                proposal, refitted = adapted(proposal, draws, errors[3]), True
                 say("module 2: the proposal refitted to the first draws' weights")
                 draws, n_blocks, checked = None, 1, None
                 continue

@@ -360,3 +360,20 @@ def test_a_likelihood_that_is_no_number_carries_no_weight():
     # The stub's exact value (its first draw's NaN, as -inf), not a spline
     # through +-1e308.
     assert np.all(fine[:, 1] == -np.inf)
+
+
+def test_a_first_round_below_its_share_refits_the_proposal(case, monkeypatch):
+    # Every first round counts as missed (share 1): the proposal is refitted
+    # once, the draws start again, and the fit completes with its errors.
+    calls = []
+    refit = converged.adapted
+
+    def counted(*args):
+        calls.append(1)
+        return refit(*args)
+
+    monkeypatch.setattr(converged, "ADAPT_SHARE", 1.0)
+    monkeypatch.setattr(converged, "adapted", counted)
+    cal = _fit(case, 0, tol=0.2)
+    assert len(calls) == 1
+    assert np.all(np.isfinite(cal.theta_mcse_))
