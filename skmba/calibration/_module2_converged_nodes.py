@@ -305,7 +305,7 @@ def _start(evaluate, node_proposal, module2, seeds, say):
     return (space, mode, INFLATION**2 * cov)
 
 
-def _adapted(pairs, w, nodes, proposal, rounds, say):
+def _refit_proposals(pairs, w, nodes, proposal, rounds, say):
     """After a first round: the nodes' proposal refitted to their weights
     where their Kish share is below :data:`~skmba.calibration.
     _module2_converged.ADAPT_SHARE` (again on the next round, at most
@@ -364,7 +364,7 @@ def converge_nodes(
         pairs = _with_groups(pairs, evaluate, nodes, n_groups, node_seed)
         pooled, w, se_phi, se_theta = _errors(pairs)
         if rounds > 0:  # the first rounds: refit a proposal that missed
-            rounds, nodes, proposal, redo = _adapted(
+            rounds, nodes, proposal, redo = _refit_proposals(
                 pairs, w, nodes, proposal, rounds, say
             )
             if redo:

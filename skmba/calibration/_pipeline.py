@@ -361,10 +361,10 @@ def _propagated(inputs, integrated, hyperprior, seeds):
 
 def _tolerance(inputs):
     """The tolerance of the integral over the hyperparameters, or None (16
-    draws): ``discrepancy_tol``, :data:`AUTO_TOL` for ``"auto"``, where it
-    applies (one parameter, quadrature; for ``"auto"`` also at most
-    :data:`AUTO_MAX_ENTRIES` field entries); a warning when it is set to a
-    number but cannot apply."""
+    draws): ``discrepancy_tol`` (a number: one parameter with its
+    quadrature, or several), :data:`AUTO_TOL` for ``"auto"`` (one
+    parameter, quadrature, at most :data:`AUTO_MAX_ENTRIES` field
+    entries); a warning when it is set to a number but cannot apply."""
     tol, sampler = inputs.settings.discrepancy_tol, _sampler(inputs)
     several = inputs.prior.dim > 1
     if tol is None or (sampler != "quadrature" and not (several and tol != "auto")):
@@ -391,9 +391,11 @@ def _tolerance(inputs):
 
 
 def _converged(inputs, module2, first, tol, seed):
-    """One parameter: the integral over the hyperparameters to the
-    calibrator's tolerance (:func:`~skmba.calibration._module2_converged.
-    converge`), module 3's posterior on its grid and module 4's pairs."""
+    """The integral over the hyperparameters to the calibrator's tolerance,
+    module 3's posterior and module 4's pairs: on a grid for one parameter
+    (:func:`~skmba.calibration._module2_converged.converge`), at weighted
+    importance nodes for several
+    (:func:`~skmba.calibration._module2_converged_nodes.converge_nodes`)."""
     started = time.perf_counter()
     settings = inputs.settings
     base = GlobalModel(
