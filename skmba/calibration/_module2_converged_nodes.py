@@ -37,7 +37,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy import special, stats
-from scipy.stats import qmc
 
 from skmba._core.linalg import proposal_covariance
 from skmba._core.validation import seed_sequence
@@ -57,7 +56,11 @@ from skmba.calibration._module2_converged import (
     tolerances,
     warn_unmet,
 )
-from skmba.calibration._module2_posterior import PROPOSAL_DF, proposal_draws
+from skmba.calibration._module2_posterior import (
+    PROPOSAL_DF,
+    halton_student_t,
+    proposal_draws,
+)
 from skmba.calibration._module2_theta_grid import INTERVAL, GridEvaluator
 from skmba.mcmc._posterior import PosteriorResult
 
@@ -110,16 +113,13 @@ class NodeProposal:
         r = len(self.mean)
         t_seed, p_seed = seed.spawn(2)
         n_prior = round(PRIOR_SHARE * n)
-        halton = qmc.Halton(r + 1, scramble=True, seed=np.random.default_rng(t_seed))
-        u = np.clip(halton.random(n - n_prior), 1e-12, 1 - 1e-12)
-        chi2 = stats.chi2.ppf(u[:, r], PROPOSAL_DF)
-        z = stats.norm.ppf(u[:, :r]) * np.sqrt(PROPOSAL_DF / chi2)[:, None]
-        root = np.linalg.cholesky(self.cov + 1e-12 * np.eye(r))
         prior_draws = self.log_post.prior.rvs(
             n_prior, random_state=np.random.default_rng(p_seed)
         )
         prior_u = self.log_post.to_u(np.reshape(prior_draws, (n_prior, r)))
-        U = np.vstack([self.mean + z @ root.T, prior_u])
+        U = np.vstack(
+            [halton_student_t(self.mean, self.cov, n - n_prior, t_seed), prior_u]
+        )
         t = stats.multivariate_t(self.mean, self.cov, df=PROPOSAL_DF)
         log_q = np.logaddexp(
             np.log1p(-PRIOR_SHARE) + np.atleast_1d(t.logpdf(U)),
@@ -373,7 +373,7 @@ def converge_nodes(
         scale = tolerances(tol)[:, None] * pooled[1][None, :]
         part_phi, part_theta = np.max(se_phi / scale), np.max(se_theta / scale)
         relative = np.sqrt(se_phi**2 + se_theta**2) / pooled[1][None, :]
-        _say(say, pairs, relative, (part_phi, part_theta), tol)
+        _say(say, pairs, w, relative, (part_phi, part_theta), tol)
         total = float(np.max(relative / tolerances(tol)[:, None]))
         n_nodes, n_draws = len(pairs.U), len(pairs.V)
         cap_groups = min(MAX_NODES // N_GROUP, MAX_PAIRS // (N_GROUP * n_draws))
@@ -412,10 +412,11 @@ def _grown(n, part, other, cap):
     return min(max(needed, n + 1), 2 * n, cap)
 
 
-def _say(say, pairs, relative, parts, tol):
-    """The progress line of a round: draws, nodes, the largest errors of
-    each summary and the shares of ``phi`` and theta in them."""
-    ess_nodes = 1.0 / np.sum(node_summaries(pairs.A, pairs.theta)[1] ** 2)
+def _say(say, pairs, w, relative, parts, tol):
+    """The progress line of a round: draws, nodes (weights ``w``), the
+    largest errors of each summary and the shares of ``phi`` and theta in
+    them."""
+    ess_nodes = 1.0 / np.sum(w**2)
     ess_draws = kish_share(pairs.A) * len(pairs.V)
     say(
         f"module 2: {len(pairs.V)} draws of the hyperparameters (effective "

@@ -265,6 +265,19 @@ def _laplace_cov(coords, v):
     return clamped_inverse(H)
 
 
+def halton_student_t(mean, cov, n, seed):
+    """``n`` draws of the Student-t with :data:`PROPOSAL_DF` degrees of
+    freedom, location ``mean`` and scale matrix ``cov``, from scrambled
+    Halton points (the normal and chi-square parts by inverse CDF)."""
+    m = len(mean)
+    halton = qmc.Halton(m + 1, scramble=True, seed=np.random.default_rng(seed))
+    u = np.clip(halton.random(n), 1e-12, 1 - 1e-12)
+    chi2 = stats.chi2.ppf(u[:, m], PROPOSAL_DF)
+    z = stats.norm.ppf(u[:, :m]) * np.sqrt(PROPOSAL_DF / chi2)[:, None]
+    root = np.linalg.cholesky(cov + 1e-12 * np.eye(m))
+    return mean + z @ root.T
+
+
 def proposal_draws(coords, mode, cov, n_draws, seed, prior_share=PRIOR_SHARE):
     """Draws of the defensive proposal, their log prior and log proposal
     densities (the log importance weights for the prior are the difference).
@@ -276,18 +289,13 @@ def proposal_draws(coords, mode, cov, n_draws, seed, prior_share=PRIOR_SHARE):
     hyperparameters far from the mode, where the mode of an approximate
     module 2 may be wrong (Hesterberg 1995, Technometrics 37).
     """
-    m = len(mode)
     cov = proposal_covariance(cov)
     t_seed, p_seed = seed.spawn(2)
     n_prior = round(prior_share * n_draws)
-    halton = qmc.Halton(m + 1, scramble=True, seed=np.random.default_rng(t_seed))
-    u = np.clip(halton.random(n_draws - n_prior), 1e-12, 1 - 1e-12)
-    chi2 = stats.chi2.ppf(u[:, m], PROPOSAL_DF)
-    z = stats.norm.ppf(u[:, :m]) * np.sqrt(PROPOSAL_DF / chi2)[:, None]
-    root = np.linalg.cholesky(cov + 1e-12 * np.eye(m))
     rng = np.random.default_rng(p_seed)
     draws = np.vstack(
-        [mode + z @ root.T] + [coords.prior_draw(rng) for _ in range(n_prior)]
+        [halton_student_t(mode, cov, n_draws - n_prior, t_seed)]
+        + [coords.prior_draw(rng) for _ in range(n_prior)]
     )
     log_t = np.atleast_1d(stats.multivariate_t(mode, cov, df=PROPOSAL_DF).logpdf(draws))
     log_p = np.array([coords.log_prior_normalised(v) for v in draws])
