@@ -67,6 +67,7 @@ from skmba.calibration._module3_posterior import (
     posterior_by_mcmc,
     posterior_by_quadrature,
 )
+from skmba.calibration._module3_update import reweighted_posterior
 from skmba.calibration._module4_prediction import PredictionRule, prediction_rule
 from skmba.priors._hyperprior import Hyperprior
 from skmba.priors._table_6_2 import ranges_text
@@ -479,7 +480,17 @@ def fit_module3(inputs, module2, seed, *, first_pass=False, earlier=None):
         module2,
     )
     log_post = LogPosterior(inputs.prior, model, inputs.scaler, inputs.sims.theta)
-    posterior = _posterior(inputs, log_post, seed, first_pass, earlier)
+    posterior = None
+    if earlier is not None:  # an update: the last run's draws may do
+        posterior = reweighted_posterior(
+            log_post,
+            earlier,
+            n_jobs=settings.n_jobs,
+            random_state=seed,
+            say=inputs.progress.info,
+        )
+    if posterior is None:
+        posterior = _posterior(inputs, log_post, seed, first_pass, earlier)
     rule = prediction_rule(
         posterior,
         log_post,
@@ -518,7 +529,7 @@ def _posterior(inputs, log_post, seed, first_pass, earlier):
         joint=first_pass,
         earlier=(
             earlier.samples
-            if earlier is not None and earlier.method == "mcmc"
+            if earlier is not None and earlier.method in ("mcmc", "reweighted")
             else None
         ),
     )
@@ -569,9 +580,11 @@ def fitted_attributes(result):
         out["theta_samples_"] = best.posterior.samples
         out["theta_mean_"], out["theta_cov_"] = best.posterior.mean, best.posterior.cov
         out["theta_mcse_"] = best.mcse
-    if posterior.method == "quadrature":
+    if posterior.method != "mcmc":
         out["theta_nodes_"], out["theta_weights_"] = posterior.nodes, posterior.weights
-    else:
+    if posterior.method == "reweighted":
+        out["ess_"] = posterior.ess
+    elif posterior.method == "mcmc":
         out["theta_chains_"] = posterior.chains
         out["theta_log_posterior_"] = posterior.log_density
         out["acceptance_rate_"] = posterior.acceptance_rate

@@ -178,6 +178,15 @@ NODES_NOTE = (
     "some repeat) in a random order, stored as one pseudo-chain. They are "
     "not a Markov chain: R-hat and ESS do not apply."
 )
+#: The same for an update that reweighted the last run's draws.
+REWEIGHTED_NOTE = (
+    "Posterior of an update (partial_fit) computed by reweighting the last "
+    "MCMC run's thinned draws (theta_nodes_, theta_weights_) to it; the "
+    "draws are theta_samples_ (systematically resampled from them, so some "
+    "repeat) in a random order, stored as one pseudo-chain. They are not a "
+    "Markov chain: R-hat does not apply; ess_ is the run's ESS times the "
+    "weights' Kish share."
+)
 #: The same for the best-fit estimand's draws.
 BEST_FIT_NOTE = (
     "The best fit: independent joint draws of reality at the field inputs, "
@@ -404,9 +413,11 @@ class CalibrationSummaryMixin:
                     f", Monte Carlo error of mean/sd {columns['mcse_mean'][j]:.2g}"
                     f"/{columns['mcse_sd'][j]:.2g}"
                 )
-            if not math.isnan(columns["r_hat"][j]):
-                r_hat, ess = columns["r_hat"][j], columns["ess_bulk"][j]
+            r_hat, ess = columns["r_hat"][j], columns["ess_bulk"][j]
+            if not math.isnan(r_hat):
                 text += f", R-hat {r_hat:.3f}, ESS {ess:.0f}"
+            elif not math.isnan(ess):  # reweighted draws: no chains
+                text += f", ESS {ess:.0f}"
             text += f", identifiability {columns['identifiability'][j]:.3g}"
             parts.append(text)
         method = "MCMC" if hasattr(self, "theta_chains_") else self._rule_name()
@@ -416,7 +427,10 @@ class CalibrationSummaryMixin:
 
     def _rule_name(self):
         """How a fit without chains integrated theta: on a grid (one
-        parameter) or at weighted importance nodes (several)."""
+        parameter), at weighted importance nodes (several), or by
+        reweighting the last run's draws (an update)."""
+        if hasattr(self, "ess_"):  # an update's, with an ESS but no chains
+            return "the last MCMC draws reweighted"
         nodes = getattr(self, "theta_nodes_", None)
         several = nodes is not None and np.ndim(nodes) == 2 and nodes.shape[1] > 1
         return "importance nodes" if several else "quadrature"
@@ -449,8 +463,10 @@ class CalibrationSummaryMixin:
             chains = np.asarray(self.theta_samples_, dtype=float)[order][np.newaxis]
             stats = None
             attrs = {"sampler": "quadrature (skmba)", "note": QUADRATURE_NOTE}
-            if self._rule_name() != "quadrature":
+            if self._rule_name() == "importance nodes":
                 attrs = {"sampler": "importance nodes (skmba)", "note": NODES_NOTE}
+            elif self._rule_name() != "quadrature":
+                attrs = {"sampler": "reweighted draws (skmba)", "note": REWEIGHTED_NOTE}
             if best_fit:
                 attrs = {"sampler": "best fit (skmba)", "note": BEST_FIT_NOTE}
         mcse = self._mcse(len(names))

@@ -285,7 +285,13 @@ def ess_tail(chains):
     return min(_ess((split <= low).astype(float)), _ess((split <= high).astype(float)))
 
 
-def check_diagnostics(result, rhat_threshold=1.01, min_ess=400, *, names=None):
+#: The largest split R-hat of converged chains (Vehtari et al. 2021).
+MAX_RHAT = 1.01
+#: The smallest bulk ESS that :func:`check_diagnostics` accepts.
+MIN_ESS = 400
+
+
+def check_diagnostics(result, rhat_threshold=MAX_RHAT, min_ess=MIN_ESS, *, names=None):
     """Warn when chains have not converged or are too short.
 
     One :class:`UserWarning` per problem: parameters whose

@@ -1,7 +1,8 @@
 """A posterior's draws and moments, and its Laplace approximation.
 
 Samplers know no GP: :class:`PosteriorResult` holds what a sampler (MCMC
-chains or a one-parameter quadrature) made of a posterior, in user units,
+chains, a one-parameter quadrature, an earlier run's draws reweighted)
+made of a posterior, in user units,
 and :func:`laplace` finds the mode and Laplace covariance of any log
 density, which place the chains' starts and first proposal. Module 3
 (:mod:`skmba.calibration._module3_posterior`) fills both.
@@ -19,18 +20,20 @@ class PosteriorResult:
 
     Attributes
     ----------
-    method : {"quadrature", "mcmc"}
+    method : {"quadrature", "mcmc", "reweighted"}
     samples : ndarray of shape (m, r)
-        Draws (pooled chains after burn-in, or resampled from quadrature).
+        Draws (pooled chains after burn-in, or resampled from the quadrature
+        or the reweighted draws).
     mean : ndarray of shape (r,)
     cov : ndarray of shape (r, r)
     nodes, weights : ndarray or None
-        The quadrature rule (one parameter) and its normalised weights.
+        The quadrature rule (one parameter), or the reweighted draws, and
+        their normalised weights.
     interval : tuple or None
         The interval that holds the quadrature posterior's mass.
     chains : ndarray of shape (n_chains, n_samples, r) or None
     acceptance_rate, rhat, ess : ndarray or None
-        MCMC diagnostics.
+        MCMC diagnostics; ``ess`` also of reweighted draws.
     log_density : ndarray of shape (n_chains, n_samples) or None
         The log posterior (:class:`LogPosterior`, user units, up to a
         constant) at each draw of ``chains``; MCMC only (None for a first
@@ -38,6 +41,9 @@ class PosteriorResult:
     labels : ndarray of shape (n_chains, n_samples) or None
         Over a mixture of module-2 draws, the draw that the chains sampled
         with each theta (a draw of ``p(phi_k | theta, data)``); MCMC only.
+    anchor : skmba.mcmc._reweight.Anchor or None
+        Reweighted only: the run whose draws were reweighted (the next
+        update reweights them again).
     """
 
     method: str
@@ -53,6 +59,7 @@ class PosteriorResult:
     ess: np.ndarray | None = None
     log_density: np.ndarray | None = None
     labels: np.ndarray | None = None
+    anchor: object | None = None
 
     def summary(self, seconds):
         """One line for the progress log: method, time, mean, sd, diagnostics."""
@@ -61,6 +68,8 @@ class PosteriorResult:
             f"posterior mean {np.array2string(self.mean, precision=5)}, "
             f"sd {np.array2string(np.sqrt(np.diag(self.cov)), precision=3)}"
         )
+        if self.method == "reweighted":
+            text += f", ESS {np.array2string(self.ess, precision=0)}"
         if self.method == "mcmc":
             text += (
                 f", R-hat {np.array2string(self.rhat, precision=3)}, bulk ESS "

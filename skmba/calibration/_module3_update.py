@@ -1,0 +1,72 @@
+"""Module 3 of an update: the last run's draws reweighted to the new posterior.
+
+:meth:`~skmba.ModularBayesCalibrator.partial_fit` adds a batch of readings
+to many earlier ones, so theta's posterior moves little. Before running
+chains, :func:`reweighted_posterior` evaluates the new log posterior (the
+mixture over the update's module-2 draws) once at each draw of the last
+MCMC run's :class:`~skmba.mcmc._reweight.Anchor`, in joblib tasks, and
+returns the reweighted posterior (:mod:`skmba.mcmc._reweight`); None when
+the weights are too uneven, and module 3 then runs its chains, started from
+the last posterior. ``tests/calibration/test_module3_update.py`` checks it
+against the chains.
+"""
+
+import time
+
+import numpy as np
+
+from skmba._core.linalg import FactorizationError
+from skmba.mcmc._reweight import REWEIGHT_SHARE, Anchor, reweighted
+
+
+def reweighted_posterior(
+    log_post, earlier, *, n_jobs=None, random_state=None, say=None
+):
+    """The last run's draws reweighted to ``log_post``, or None.
+
+    Parameters
+    ----------
+    log_post : LogPosterior
+        The update's log posterior (over its
+        :class:`~skmba.calibration._module3_mixture.ModelMixture`).
+    earlier : PosteriorResult
+        The last update's posterior: MCMC with its log density, or
+        reweighted (from its anchor); anything else gives None.
+    n_jobs : int or None
+        joblib tasks of the evaluation.
+    random_state : int, SeedSequence or None
+        Seeds the resampling of ``samples``.
+    say : callable or None
+        Receives one line on the outcome.
+
+    Returns
+    -------
+    PosteriorResult or None
+    """
+    anchor = Anchor.of(earlier)
+    if anchor is None:
+        return None
+    started = time.perf_counter()
+    thetas = anchor.thetas
+    log_prior = np.ravel(log_post.prior.logpdf(thetas))
+    inside = np.isfinite(log_prior)
+    log_density = np.full(len(thetas), -np.inf)
+    try:
+        values = log_post.model.spread_component_log_likelihoods(
+            log_post.scaler.theta(thetas[inside]), n_jobs
+        )
+    except FactorizationError:
+        return None  # the chains' own checks say why
+    log_density[inside] = log_prior[inside] + np.logaddexp.reduce(values, axis=1)
+    posterior, share = reweighted(anchor, log_density, random_state)
+    if say is not None:
+        outcome = (
+            f"Kish share {share:.2f} below {REWEIGHT_SHARE}: running chains"
+            if posterior is None
+            else f"Kish share {share:.2f}"
+        )
+        say(
+            f"module 3: the last run's {len(thetas)} draws reweighted in "
+            f"{time.perf_counter() - started:.1f} s; {outcome}"
+        )
+    return posterior

@@ -1,0 +1,123 @@
+"""Module 3 of an update: a day added to months of readings reweights the
+last run's draws and agrees with chains run on the same update within
+their Monte Carlo errors; an update that moves the posterior runs chains;
+the fitted attributes, summary and ArviZ export say which."""
+
+import pickle
+import warnings
+
+import numpy as np
+import pytest
+from scipy import stats
+
+import skmba.mcmc._reweight as reweight_module
+from skmba import ModularBayesCalibrator
+from skmba.datasets import make_bridge_monitoring
+from skmba.exceptions import NonIdentifiabilityWarning
+
+pd = pytest.importorskip("pandas")
+
+DATA = make_bridge_monitoring(random_state=0)
+FRAME = DATA.frame
+X, Y = FRAME[["temperature"]], FRAME[list(DATA.response_names)]
+SIMS = dict(X_sim=DATA.X_sim, theta_sim=DATA.theta_sim, y_sim=DATA.y_sim)
+# Short chains and 2 degC bins (about 25 distinct inputs): seconds per fit.
+FAST = dict(bin_width=2.0, n_samples=1000, burn_in=300, random_state=0)
+MONTH, DAY = FRAME.index.month, FRAME.index.day
+
+
+def _quiet(call, *args, **kwargs):
+    # E and the bearings are confounded with the discrepancy on a
+    # temperature-only design (said by the identifiability warning).
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", NonIdentifiabilityWarning)
+        return call(*args, **kwargs)
+
+
+@pytest.fixture(scope="module")
+def eleven_months():
+    """A calibrator fitted on January to November (pickled: each test
+    updates its own copy)."""
+    cal = ModularBayesCalibrator(prior=DATA.prior, **FAST)
+    rows = MONTH <= 11
+    return pickle.dumps(_quiet(cal.partial_fit, X[rows], Y[rows], **SIMS))
+
+
+def _update(blob, rows):
+    cal = pickle.loads(blob)
+    return _quiet(cal.partial_fit, X[rows], Y[rows])
+
+
+def _sd_error(samples, ess):
+    """Standard error of a sample sd relative to it: sqrt((kurtosis - 1) /
+    (4 ess)) (the delta method on the sample variance)."""
+    kurtosis = stats.kurtosis(samples, fisher=False)
+    return np.sqrt((kurtosis - 1.0) / (4.0 * ess))
+
+
+def test_a_day_reweights_the_last_draws_as_chains_would(eleven_months, monkeypatch):
+    day = (MONTH == 12) & (DAY == 1)
+    cal = _update(eleven_months, day)
+    assert not hasattr(cal, "theta_chains_") and not hasattr(cal, "rhat_")
+    anchor = pickle.loads(eleven_months)
+    # about one node per effective draw of the last run's chains
+    assert 0.8 * anchor.ess_.min() <= len(cal.theta_nodes_) <= anchor.ess_.min()
+    assert cal.theta_weights_.sum() == pytest.approx(1.0)
+    # ESS: the last run's (thinned to the nodes) times the Kish share
+    share = 1.0 / np.sum(cal.theta_weights_**2) / len(cal.theta_weights_)
+    assert share >= reweight_module.REWEIGHT_SHARE
+    np.testing.assert_allclose(
+        cal.ess_, np.minimum(anchor.ess_, len(cal.theta_nodes_)).min() * share
+    )
+    assert "the last MCMC draws reweighted" in cal.summary(kind="text")
+    assert "ESS" in cal.summary(kind="text")
+    table = cal.summary()
+    np.testing.assert_allclose(table["ess_bulk"], cal.ess_)
+    assert table["r_hat"].isna().all()
+    # the same update by chains (the reweighting refused at any share)
+    monkeypatch.setattr(reweight_module, "REWEIGHT_SHARE", 2.0)
+    chains = _update(eleven_months, day)
+    assert hasattr(chains, "theta_chains_")
+    sd = np.sqrt(np.diag(chains.theta_cov_))
+    se_mean = sd * np.sqrt(1 / cal.ess_ + 1 / chains.ess_)
+    assert np.all(np.abs(cal.theta_mean_ - chains.theta_mean_) < 4 * se_mean)
+    se_sd = np.hypot(
+        _sd_error(cal.theta_samples_, cal.ess_),
+        _sd_error(chains.theta_samples_, chains.ess_),
+    )
+    ratio = np.sqrt(np.diag(cal.theta_cov_)) / sd
+    assert np.all(np.abs(ratio - 1.0) < 4 * se_sd), (ratio, se_sd)
+
+
+def test_the_next_day_reweights_the_same_draws_and_the_export_says_so(
+    eleven_months,
+):
+    cal = _update(eleven_months, (MONTH == 12) & (DAY == 1))
+    nodes, weights = cal.theta_nodes_, cal.theta_weights_
+    second = (MONTH == 12) & (DAY == 2)
+    _quiet(cal.partial_fit, X[second], Y[second])
+    np.testing.assert_array_equal(cal.theta_nodes_, nodes)
+    assert not np.allclose(cal.theta_weights_, weights, rtol=1e-3)
+    assert len(cal.theta_history_) == 3
+    history = cal.theta_history_
+    np.testing.assert_array_equal(history["E_mean"].iloc[-1], cal.theta_mean_[0])
+    pytest.importorskip("arviz")
+    idata = cal.to_inference_data()
+    assert idata.posterior.attrs["sampler"] == "reweighted draws (skmba)"
+    assert "Kish share" in idata.posterior.attrs["note"]
+
+
+def test_a_last_run_that_did_not_converge_is_not_reweighted():
+    # A week of readings: the short chains do not mix (R-hat about 2, ESS
+    # about 5, warned); its draws must not stand for the next posterior.
+    cal = ModularBayesCalibrator(prior=DATA.prior, **FAST)
+    week = (MONTH == 1) & (DAY <= 7)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        cal.partial_fit(X[week], Y[week], **SIMS)
+    assert np.max(cal.rhat_) > 1.01
+    day = (MONTH == 1) & (DAY == 8)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        cal.partial_fit(X[day], Y[day])
+    assert hasattr(cal, "theta_chains_") and not hasattr(cal, "theta_nodes_")
