@@ -237,7 +237,9 @@ class ModularBayesCalibrator(
     theta_cov_ : ndarray of shape (r, r)
     acceptance_rate_, rhat_, ess_ : ndarray
         MCMC diagnostics (n_chains,), (r,), (r,); only with MCMC: ArviZ's
-        rank-normalised split ``rhat`` and bulk ``ess`` (User Guide).
+        rank-normalised split ``rhat`` and bulk ``ess`` (User Guide). After
+        an update that reweighted the last run's draws, ``ess_`` alone: the
+        run's bulk ESS (at most its nodes) times the weights' Kish share.
     theta_mcse_ : ndarray of shape (4, r)
         Monte Carlo errors of the posterior mean, sd, 2.5 % and 97.5 % ends
         from the integral over the hyperparameters (``discrepancy_tol``);
@@ -274,7 +276,10 @@ class ModularBayesCalibrator(
         (distinct inputs or bins) and ``<parameter>_mean``, ``_sd``,
         ``_2.5%``, ``_97.5%``.
     theta_nodes_, theta_weights_ : ndarray
-        The posterior quadrature (only with quadrature).
+        The posterior's weighted nodes: the quadrature (one parameter), the
+        importance nodes (``discrepancy_tol`` with several), or the last
+        MCMC run's thinned draws reweighted by an update (:meth:`partial_fit`);
+        absent with MCMC.
     prior_ : prior object
         The checked prior (one of :mod:`skmba.priors`): ``logpdf``, ``rvs``,
         ``mean``, ``cov``, ``bounds``, ``dim`` and ``names``.
@@ -453,6 +458,12 @@ class ModularBayesCalibrator(
         Their cost grows with the distinct inputs (``bin_width``), not the
         readings; the result is :meth:`fit`'s on all the batches up to
         module 3's Monte Carlo error. ``theta_history_`` records each call.
+
+        With MCMC, module 3 first reweights the last run's draws (thinned to
+        about one per effective draw) to the new posterior, one likelihood
+        per draw; it runs chains instead when that run's diagnostics were
+        warned about, the weights' Kish share is below one half, or the ESS
+        would fall below 400 (User Guide, "Monitoring over time").
 
         Parameters
         ----------

@@ -16,6 +16,7 @@ import time
 import numpy as np
 
 from skmba._core.linalg import FactorizationError
+from skmba.mcmc._diagnostics import MIN_ESS
 from skmba.mcmc._reweight import REWEIGHT_SHARE, Anchor, reweighted
 
 
@@ -51,6 +52,8 @@ def reweighted_posterior(
     log_prior = np.ravel(log_post.prior.logpdf(thetas))
     inside = np.isfinite(log_prior)
     log_density = np.full(len(thetas), -np.inf)
+    if not inside.any():  # no node inside the prior's support
+        return None
     try:
         values = log_post.model.spread_component_log_likelihoods(
             log_post.scaler.theta(thetas[inside]), n_jobs
@@ -60,11 +63,12 @@ def reweighted_posterior(
     log_density[inside] = log_prior[inside] + np.logaddexp.reduce(values, axis=1)
     posterior, share = reweighted(anchor, log_density, random_state)
     if say is not None:
-        outcome = (
-            f"Kish share {share:.2f} below {REWEIGHT_SHARE}: running chains"
-            if posterior is None
-            else f"Kish share {share:.2f}"
-        )
+        outcome = f"Kish share {share:.2f}"
+        if posterior is None:
+            outcome = (
+                f"refused (a Kish share of at least {REWEIGHT_SHARE} and an ESS "
+                f"of {MIN_ESS} needed, Kish share {share:.2f}): running chains"
+            )
         say(
             f"module 3: the last run's {len(thetas)} draws reweighted in "
             f"{time.perf_counter() - started:.1f} s; {outcome}"
