@@ -9,7 +9,8 @@ configuration, in a fresh Python process each (``--one`` runs one):
 - ``first fit (cold)``: ``fit`` on the first 364 days, the first call of
   the process (imports, joblib's workers and BLAS start-up included);
 - ``daily update``: then ``partial_fit`` of the last day's 24 readings
-  (module 1 kept, modules 2-3 warm-started);
+  (module 1 kept, modules 2-3 warm-started; module 3 by chains or by
+  reweighting the first fit's draws, printed);
 - ``first fit (warm)``: ``fit`` on the 364 days again in the same process
   (skipped with ``--skip-warm``);
 - the peak resident memory of the process (``ru_maxrss``), the distinct
@@ -17,12 +18,12 @@ configuration, in a fresh Python process each (``--one`` runs one):
 
 Configurations, defaults first: the calibrator's defaults with ``bin_width``
 1 degC (the readings' exact means need 434 x 4 values: ``fit`` warns of
-hours, printed here from that warning's estimate); the same with the thesis'
-plug-in module 2; and the defaults with 2 degC bins and chains of 1,000
-draws after 300 (``MONITORING``). Each line ends with the update's time over
-the cold first fit's, the ratio a daily update saves.
+hours, printed here from that warning's estimate); the same with 2 degC
+bins; the thesis' plug-in module 2 with 1 degC bins; and 2 degC bins with
+chains of 1,000 draws after 300 (``MONITORING``). Each line ends with the
+update's time over the cold first fit's, the ratio a daily update saves.
 
-Run with ``python benchmarks/bench_monitoring.py`` (about 15 minutes on two
+Run with ``python benchmarks/bench_monitoring.py`` (about 8 minutes on two
 cores); ``--only NAME`` runs one configuration.
 """
 
@@ -39,6 +40,7 @@ import numpy as np
 
 CONFIGS = {
     "defaults, bin_width=1": {"bin_width": 1.0},
+    "defaults, bin_width=2": {"bin_width": 2.0},
     "plug-in, bin_width=1": {"bin_width": 1.0, "discrepancy_uncertainty": "plug-in"},
     "MONITORING: bin_width=2, 1000 draws after 300": {
         "bin_width": 2.0,
@@ -74,6 +76,7 @@ def _one(name, skip_warm):
         cal.partial_fit(X[day], Y[day])
         out["update"] = time.perf_counter() - t
         out["means"] = int(cal.theta_history_["n_means"].iloc[-1])
+        out["module3"] = "chains" if hasattr(cal, "theta_chains_") else "reweighted"
         out["ess"] = np.asarray(getattr(cal, "ess_", [np.nan])).tolist()
         out["rhat"] = np.asarray(getattr(cal, "rhat_", [np.nan])).tolist()
         out["theta_sd"] = np.sqrt(np.diag(cal.theta_cov_)).tolist()
@@ -127,7 +130,7 @@ def main():
         print(
             f"{name}: {r['means']} distinct inputs; first fit cold {r['cold']:.1f} s "
             f"(imports {r['imports']:.1f} s), warm {warm}; daily update "
-            f"{r['update']:.1f} s (ESS {np.round(r['ess'])}, R-hat "
+            f"{r['update']:.1f} s ({r['module3']}, ESS {np.round(r['ess'])}, R-hat "
             f"{np.round(r['rhat'], 3)}); peak {r['peak_gib']:.2f} GiB; "
             f"update / cold fit {r['update'] / r['cold']:.2f}",
             flush=True,
