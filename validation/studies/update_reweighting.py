@@ -1,0 +1,178 @@
+"""Is a daily update that reweights the last chains' draws worth its ESS?
+
+``partial_fit`` reweights the last MCMC run's draws to the new posterior
+when their Kish share allows (:mod:`skmba.mcmc._reweight`), and reports as
+its ESS the run's times that share. This study checks that claim on the
+monitoring data set against long chains on the same update.
+
+Per seed ``s``: ``make_bridge_monitoring(random_state=s)``, the calibrator's
+defaults with ``bin_width=2`` and ``random_state=s``, ``fit`` on the first
+364 days, then three versions of the last day's update from that same fit
+(the same module 2, so only module 3 differs):
+
+- ``reweighted``: ``partial_fit`` as shipped;
+- ``chains``: the same update with the reweighting refused (its share
+  threshold set above one in the worker), the chains of the defaults;
+- ``reference``: the same with 4 chains of ``--reference-draws`` draws
+  (fixed length).
+
+For the mean and the sd of each parameter, ``z = (estimate - reference) /
+sqrt(se^2 + se_ref^2)`` with ``se`` from each run's own ESS (the mean's
+``sd / sqrt(ess)``, the sd's ``sd sqrt((kurtosis - 1) / (4 ess))``, the
+kurtosis of the reference's draws). Printed: how many updates reweighted,
+their Kish shares and ESS, the time of each version, and per quantity the
+rms z of the reweighted and of the chains' updates with the range honest
+errors give (chi-squared with one degree of freedom per seed).
+
+Usage::
+
+    python -m validation.studies.update_reweighting --n-seeds 20 --n-jobs 2
+
+The result is quoted in ``docs/internals.rst`` (section
+skmba.mcmc._reweight).
+"""
+
+import argparse
+import pickle
+import time
+import warnings
+
+import numpy as np
+import threadpoolctl
+from joblib import Parallel, delayed
+from scipy import stats
+
+import skmba.mcmc._reweight as reweight_module
+from skmba import ModularBayesCalibrator
+from skmba.datasets import make_bridge_monitoring
+
+DAY = 24
+QUANTITIES = ("mean", "sd")
+
+
+def _summary(cal, seconds):
+    """What a version of the update gave: moments, ESS, draws, how, time."""
+    return {
+        "mean": np.asarray(cal.theta_mean_, float),
+        "sd": np.sqrt(np.diag(cal.theta_cov_)),
+        "ess": np.broadcast_to(np.asarray(cal.ess_, float), cal.theta_mean_.shape),
+        "samples": np.asarray(cal.theta_samples_, float),
+        "reweighted": not hasattr(cal, "theta_chains_"),
+        "share": (
+            float(1.0 / np.sum(cal.theta_weights_**2) / len(cal.theta_weights_))
+            if hasattr(cal, "theta_weights_")
+            else np.nan
+        ),
+        "seconds": seconds,
+    }
+
+
+def _seed(seed, reference_draws):
+    """The three versions of one seed's daily update."""
+    data = make_bridge_monitoring(random_state=seed)
+    frame = data.frame
+    X, Y = frame[["temperature"]], frame[list(data.response_names)]
+    year, day = slice(0, len(frame) - DAY), slice(len(frame) - DAY, len(frame))
+    cal = ModularBayesCalibrator(prior=data.prior, bin_width=2.0, random_state=seed)
+    out = {}
+    with threadpoolctl.threadpool_limits(1), warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # identifiability: said in the docs
+        cal.fit(
+            X[year],
+            Y[year],
+            X_sim=data.X_sim,
+            theta_sim=data.theta_sim,
+            y_sim=data.y_sim,
+        )
+        fitted = pickle.dumps(cal)
+        versions = {
+            "reweighted": ({}, reweight_module.REWEIGHT_SHARE),
+            "chains": ({}, 2.0),
+            "reference": ({"n_samples": reference_draws, "target_ess": None}, 2.0),
+        }
+        shipped = reweight_module.REWEIGHT_SHARE
+        try:
+            for name, (params, share) in versions.items():
+                reweight_module.REWEIGHT_SHARE = share  # above one: chains
+                update = pickle.loads(fitted).set_params(**params)
+                started = time.perf_counter()
+                update.partial_fit(X[day], Y[day])
+                out[name] = _summary(update, time.perf_counter() - started)
+        finally:
+            reweight_module.REWEIGHT_SHARE = shipped
+    return out
+
+
+def _errors(run, kurtosis):
+    """Standard errors (2, r) of a run's mean and sd from its ESS."""
+    return np.array(
+        [
+            run["sd"] / np.sqrt(run["ess"]),
+            run["sd"] * np.sqrt((kurtosis - 1.0) / (4.0 * run["ess"])),
+        ]
+    )
+
+
+def _z(run, ref):
+    """z (2, r) of a run's mean and sd against the reference's."""
+    kurtosis = stats.kurtosis(ref["samples"], axis=0, fisher=False)
+    se = np.hypot(_errors(run, kurtosis), _errors(ref, kurtosis))
+    values = np.array([run["mean"], run["sd"]])
+    return (values - np.array([ref["mean"], ref["sd"]])) / se
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--n-seeds", type=int, default=20)
+    parser.add_argument("--n-jobs", type=int, default=1)
+    parser.add_argument("--reference-draws", type=int, default=20_000)
+    args = parser.parse_args(argv)
+    started = time.perf_counter()
+    results = Parallel(n_jobs=args.n_jobs)(
+        delayed(_seed)(s, args.reference_draws) for s in range(args.n_seeds)
+    )
+    reweighted = [r for r in results if r["reweighted"]["reweighted"]]
+    shares = np.array([r["reweighted"]["share"] for r in reweighted])
+    ess = np.array([r["reweighted"]["ess"].min() for r in reweighted])
+    seconds = {
+        name: np.array([r[name]["seconds"] for r in results])
+        for name in ("reweighted", "chains", "reference")
+    }
+    print(
+        f"bridge year, 2 degC bins, defaults; {args.n_seeds} seeds, "
+        f"{time.perf_counter() - started:.0f} s; reference: 4 chains of "
+        f"{args.reference_draws} draws"
+    )
+    print(
+        f"reweighted: {len(reweighted)}/{len(results)} updates; Kish share "
+        f"{shares.min():.2f}-{shares.max():.2f}, ESS {ess.min():.0f}-{ess.max():.0f}"
+        if reweighted
+        else f"reweighted: 0/{len(results)} updates"
+    )
+    print(
+        "update time (median, s): "
+        + ", ".join(f"{k} {np.median(v):.1f}" for k, v in seconds.items())
+    )
+    n = len(reweighted)
+    if not n:
+        return
+    band = np.sqrt(stats.chi2.ppf([0.025, 0.975], n) / n)
+    print(
+        f"parameter | quantity | rms z reweighted | rms z chains (95 % range if "
+        f"honest: [{band[0]:.2f}, {band[1]:.2f}])"
+    )
+    z = {
+        name: np.array([_z(r[name], r["reference"]) for r in reweighted])
+        for name in ("reweighted", "chains")
+    }  # (n, 2, r)
+    names = make_bridge_monitoring(random_state=0).parameter_names
+    for j, name in enumerate(names):
+        for i, quantity in enumerate(QUANTITIES):
+            rms = {k: np.sqrt(np.mean(v[:, i, j] ** 2)) for k, v in z.items()}
+            print(
+                f"{name} | {quantity} | {rms['reweighted']:.2f} | {rms['chains']:.2f}"
+            )
+
+
+if __name__ == "__main__":
+    main()
