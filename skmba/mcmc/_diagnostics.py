@@ -285,6 +285,59 @@ def ess_tail(chains):
     return min(_ess((split <= low).astype(float)), _ess((split <= high).astype(float)))
 
 
+def ess_mean(chains):
+    """Effective sample size of one parameter's mean.
+
+    The effective sample size of the draws themselves over the split chains
+    (no rank normalisation, unlike :func:`ess_bulk`): what sets the Monte
+    Carlo error of the posterior mean, ``sd / sqrt(ess_mean)``. Below the
+    bulk ESS for a heavy-tailed parameter, whose rare far draws move the
+    mean. Equals ``arviz.ess(chains, method="mean")`` (ArviZ 0.x) to
+    rounding (checked in ``tests/mcmc/test_diagnostics.py``).
+
+    Parameters
+    ----------
+    chains : array_like of shape (n_chains, n_draws)
+        Draws of one parameter (a 1-D array is a single chain).
+
+    Returns
+    -------
+    ess : float
+        NaN as for :func:`ess_bulk`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skmba.mcmc._diagnostics import ess_mean
+    >>> rng = np.random.default_rng(0)
+    >>> bool(3600 < ess_mean(rng.normal(size=(4, 1000))) < 4400)
+    True
+    """
+    chains = _as_chains(chains)
+    if not _usable(chains):
+        return math.nan
+    return _ess(_split(chains))
+
+
+def ess_sd(chains):
+    """Effective sample size of one parameter's sd: :func:`ess_mean` of the
+    squared deviations from the mean of all draws. Equals
+    ``arviz.ess(chains, method="sd")`` (ArviZ 0.x) to rounding.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skmba.mcmc._diagnostics import ess_sd
+    >>> rng = np.random.default_rng(0)
+    >>> bool(3400 < ess_sd(rng.normal(size=(4, 1000))) < 4600)
+    True
+    """
+    chains = _as_chains(chains)
+    if not _usable(chains):
+        return math.nan
+    return ess_mean((chains - chains.mean()) ** 2)
+
+
 #: The largest split R-hat of converged chains (Vehtari et al. 2021).
 MAX_RHAT = 1.01
 #: The smallest bulk ESS that :func:`check_diagnostics` accepts.

@@ -46,7 +46,7 @@ import numpy as np
 from scipy import special
 
 from skmba._core.validation import seed_sequence
-from skmba.mcmc._diagnostics import MAX_RHAT, MIN_ESS
+from skmba.mcmc._diagnostics import MAX_RHAT, MIN_ESS, ess_mean, ess_sd, ess_tail
 from skmba.mcmc._posterior import PosteriorResult
 
 #: The Kish share ``(sum w)^2 / (M sum w^2)`` of the weights below which
@@ -68,8 +68,9 @@ class Anchor:
         The run's log posterior at ``thetas`` (up to a constant): the
         proposal density of the reweighting.
     ess : ndarray of shape (r,)
-        Effective draws of ``thetas`` per parameter: the run's bulk ESS, at
-        most ``M``.
+        Effective draws of ``thetas`` per parameter: the smallest of the
+        run's bulk, tail, mean and sd ESS
+        (:mod:`skmba.mcmc._diagnostics`), at most ``M``.
     """
 
     thetas: np.ndarray
@@ -90,10 +91,20 @@ class Anchor:
             return None
         chains, log_density = posterior.chains, posterior.log_density
         n_chains, n_draws, r = chains.shape
-        ess = np.asarray(posterior.ess, dtype=float)
+        bulk = np.asarray(posterior.ess, dtype=float)
         rhat = np.asarray(posterior.rhat, dtype=float)
-        if not (np.all(ess >= MIN_ESS) and np.all(rhat <= MAX_RHAT)):
+        if not (np.all(bulk >= MIN_ESS) and np.all(rhat <= MAX_RHAT)):
             return None  # NaN included
+        # What the draws are worth for every summary: the bulk, the tails,
+        # the mean and the sd (the last two below the bulk for a heavy tail).
+        ess = np.array(
+            [
+                min(b, *(f(chains[:, :, j]) for f in (ess_tail, ess_mean, ess_sd)))
+                for j, b in enumerate(bulk)
+            ]
+        )
+        if not np.all(np.isfinite(ess)):
+            return None
         per_chain = max(1, math.ceil(float(np.min(ess)) / n_chains))
         step = max(1, math.ceil(n_draws / per_chain))
         thetas = chains[:, ::step].reshape(-1, r)

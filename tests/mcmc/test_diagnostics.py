@@ -12,6 +12,8 @@ from skmba.mcmc._diagnostics import (
     _rhat_folded,
     check_diagnostics,
     ess_bulk,
+    ess_mean,
+    ess_sd,
     ess_tail,
     rank_normalize,
     split_rhat,
@@ -158,6 +160,8 @@ def test_rhat_and_ess_equal_arviz(name):
     assert split_rhat(chains) == pytest.approx(az.rhat(chains, method="rank"), abs=1e-6)
     assert ess_bulk(chains) == pytest.approx(az.ess(chains, method="bulk"), abs=1e-6)
     assert ess_tail(chains) == pytest.approx(az.ess(chains, method="tail"), abs=1e-6)
+    assert ess_mean(chains) == pytest.approx(az.ess(chains, method="mean"), abs=1e-6)
+    assert ess_sd(chains) == pytest.approx(az.ess(chains, method="sd"), abs=1e-6)
     if theory is not None:  # ESS = N (1 - rho) / (1 + rho) for AR(1), N for iid draws
         assert ess_bulk(chains) == pytest.approx(theory, rel=0.15)
 

@@ -17,9 +17,11 @@ defaults with ``bin_width=2`` and ``random_state=s``, ``fit`` on the first
   (fixed length).
 
 For the mean and the sd of each parameter, ``z = (estimate - reference) /
-sqrt(se^2 + se_ref^2)`` with ``se`` from each run's own ESS (the mean's
-``sd / sqrt(ess)``, the sd's ``sd sqrt((kurtosis - 1) / (4 ess))``, the
-kurtosis of the reference's draws). Printed: how many updates reweighted,
+sqrt(se^2 + se_ref^2)``, with ``se`` of two kinds: from each run's reported
+``ess_`` (the mean's ``sd / sqrt(ess)``, the sd's ``sd sqrt((kurtosis - 1) /
+(4 ess))``, the kurtosis of the reference's draws), and from its draws
+(ArviZ's ``mcse`` of chains; the delta method of self-normalised importance
+sampling for the reweighted nodes). Printed: how many updates reweighted,
 their Kish shares and ESS, the time of each version, and per quantity the
 rms z of the reweighted and of the chains' updates with the range honest
 errors give (chi-squared with one degree of freedom per seed).
@@ -57,6 +59,9 @@ def _summary(cal, seconds):
         "sd": np.sqrt(np.diag(cal.theta_cov_)),
         "ess": np.broadcast_to(np.asarray(cal.ess_, float), cal.theta_mean_.shape),
         "samples": np.asarray(cal.theta_samples_, float),
+        "chains": getattr(cal, "theta_chains_", None),
+        "nodes": getattr(cal, "theta_nodes_", None),
+        "weights": getattr(cal, "theta_weights_", None),
         "reweighted": not hasattr(cal, "theta_chains_"),
         "share": (
             float(1.0 / np.sum(cal.theta_weights_**2) / len(cal.theta_weights_))
@@ -103,8 +108,8 @@ def _seed(seed, reference_draws):
     return out
 
 
-def _errors(run, kurtosis):
-    """Standard errors (2, r) of a run's mean and sd from its ESS."""
+def _ess_errors(run, kurtosis):
+    """Standard errors (2, r) of a run's mean and sd from its ``ess_``."""
     return np.array(
         [
             run["sd"] / np.sqrt(run["ess"]),
@@ -113,10 +118,36 @@ def _errors(run, kurtosis):
     )
 
 
-def _z(run, ref):
+def _mcse(run):
+    """Standard errors (2, r) of a run's mean and sd from its draws:
+    ArviZ's ``mcse`` of chains; for weighted nodes, the delta method of
+    self-normalised importance sampling (nodes taken as independent)."""
+    if run["chains"] is not None:
+        import arviz
+
+        chains = run["chains"]
+        return np.array(
+            [
+                [float(arviz.mcse(chains[:, :, j], method=m)) for j in range(2)]
+                for m in ("mean", "sd")
+            ]
+        )
+    w, x = run["weights"], run["nodes"]
+    centred = x - run["mean"]
+    se_mean = np.sqrt(np.sum(w[:, None] ** 2 * centred**2, axis=0))
+    se_var = np.sqrt(
+        np.sum(w[:, None] ** 2 * (centred**2 - run["sd"] ** 2) ** 2, axis=0)
+    )
+    return np.array([se_mean, se_var / (2.0 * run["sd"])])
+
+
+def _z(run, ref, errors):
     """z (2, r) of a run's mean and sd against the reference's."""
     kurtosis = stats.kurtosis(ref["samples"], axis=0, fisher=False)
-    se = np.hypot(_errors(run, kurtosis), _errors(ref, kurtosis))
+    if errors == "ess":
+        se = np.hypot(_ess_errors(run, kurtosis), _ess_errors(ref, kurtosis))
+    else:
+        se = np.hypot(_mcse(run), _mcse(ref))
     values = np.array([run["mean"], run["sd"]])
     return (values - np.array([ref["mean"], ref["sd"]])) / se
 
@@ -158,19 +189,26 @@ def main(argv=None):
         return
     band = np.sqrt(stats.chi2.ppf([0.025, 0.975], n) / n)
     print(
-        f"parameter | quantity | rms z reweighted | rms z chains (95 % range if "
-        f"honest: [{band[0]:.2f}, {band[1]:.2f}])"
+        "rms z of the estimates against the reference's (95 % range if the "
+        f"errors are honest: [{band[0]:.2f}, {band[1]:.2f}]), with errors from "
+        "the reported ess_ and from the draws (delta method for the "
+        "reweighted nodes, ArviZ's mcse for chains)"
     )
+    print("parameter | quantity | reweighted: ess_, mcse | chains: ess_, mcse")
     z = {
-        name: np.array([_z(r[name], r["reference"]) for r in reweighted])
+        (name, errors): np.array(
+            [_z(r[name], r["reference"], errors) for r in reweighted]
+        )
         for name in ("reweighted", "chains")
-    }  # (n, 2, r)
+        for errors in ("ess", "mcse")
+    }  # (n, 2, r) each
     names = make_bridge_monitoring(random_state=0).parameter_names
     for j, name in enumerate(names):
         for i, quantity in enumerate(QUANTITIES):
-            rms = {k: np.sqrt(np.mean(v[:, i, j] ** 2)) for k, v in z.items()}
+            rms = [np.sqrt(np.mean(v[:, i, j] ** 2)) for v in z.values()]
             print(
-                f"{name} | {quantity} | {rms['reweighted']:.2f} | {rms['chains']:.2f}"
+                f"{name} | {quantity} | {rms[0]:.2f}, {rms[1]:.2f} | "
+                f"{rms[2]:.2f}, {rms[3]:.2f}"
             )
 
 
