@@ -55,11 +55,12 @@ cal = ModularBayesCalibrator(prior=data.prior, bin_width=2.0, random_state=0)
 # and say how module 3 ran (chains with their R-hat, or the last chains'
 # draws reweighted, with their ESS). The first call's warnings are
 # printed: the temperature alone cannot tell the deck's modulus E from the
-# bearings and the discrepancy (each shifts every frequency). Each update reports its own hours without any reading, and
-# checks all the readings so far against the simulations again, which
-# repeats the identifiability warning and the spread check's (the higher
-# frequencies' readings look narrow next to simulations that span the whole
-# prior, a false alarm here); they are not printed.
+# bearings and the discrepancy (each shifts every frequency). Each update
+# reports its own hours without any reading, and checks all the readings so
+# far against the simulations again, which repeats the identifiability
+# warning and the spread check's (the higher frequencies' readings look
+# narrow next to simulations that span the whole prior, a false alarm
+# here); they are not printed.
 
 months = log.index.month
 for month in range(1, 13):
