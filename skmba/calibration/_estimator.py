@@ -239,7 +239,8 @@ class ModularBayesCalibrator(
         MCMC diagnostics (n_chains,), (r,), (r,); only with MCMC: ArviZ's
         rank-normalised split ``rhat`` and bulk ``ess`` (User Guide). After
         an update that reweighted the last run's draws, ``ess_`` alone: the
-        run's bulk ESS (at most its nodes) times the weights' Kish share.
+        smallest of the run's bulk, tail, mean and sd ESS (at most its
+        nodes) times the weights' Kish share.
     theta_mcse_ : ndarray of shape (4, r)
         Monte Carlo errors of the posterior mean, sd, 2.5 % and 97.5 % ends
         from the integral over the hyperparameters (``discrepancy_tol``);
