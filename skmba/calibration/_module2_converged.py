@@ -68,6 +68,7 @@ from skmba.calibration._module2_theta_grid import (
     spline_error,
 )
 from skmba.mcmc._posterior import PosteriorResult
+from skmba.mcmc._reweight import systematic_indices
 
 #: The tolerance of ``discrepancy_tol="auto"``, in posterior sds: the sd's
 #: coefficient of variation over seeds is about this (docs/validity.rst).
@@ -284,9 +285,7 @@ def rule_pairs(A, nodes, seed):
     counts: the nodes' rows of ``nodes`` (J, r), the draws' indices and the
     pairs' weights."""
     W = np.exp(A - special.logsumexp(A)).ravel()
-    rng = np.random.default_rng(seed)
-    u = (np.arange(N_RULE_PAIRS) + rng.uniform()) / N_RULE_PAIRS
-    picked = np.minimum(np.searchsorted(np.cumsum(W), u), len(W) - 1)
+    picked = systematic_indices(W, N_RULE_PAIRS, np.random.default_rng(seed))
     flat, counts = np.unique(picked, return_counts=True)
     j, k = np.unravel_index(flat, A.shape)
     return nodes[j], k, counts / counts.sum()

@@ -63,6 +63,7 @@ from skmba.calibration._module2_posterior import (
 )
 from skmba.calibration._module2_theta_grid import INTERVAL, GridEvaluator
 from skmba.mcmc._posterior import PosteriorResult
+from skmba.mcmc._reweight import systematic_indices
 
 #: Nodes per randomised group (a power of two, for the Halton points).
 N_GROUP = 64
@@ -386,11 +387,8 @@ def converge_nodes(
         else:
             n_blocks = _grown(n_blocks, part_phi, part_theta, cap_blocks)
     hyper = mixture_draws(module2, evaluate, pairs.V, pairs.log_w, proposal, pairs.A)
-    rng = np.random.default_rng(sample_seed)
-    picked = np.searchsorted(
-        np.cumsum(w), (np.arange(n_samples) + rng.uniform()) / n_samples
-    )
-    samples = pairs.theta[np.minimum(picked, len(w) - 1)]
+    picked = systematic_indices(w, n_samples, np.random.default_rng(sample_seed))
+    samples = pairs.theta[picked]
     posterior = PosteriorResult.from_rule(
         samples, pairs.theta, w, (pairs.theta.min(axis=0), pairs.theta.max(axis=0))
     )

@@ -288,22 +288,12 @@ def ess_tail(chains):
 def ess_mean(chains):
     """Effective sample size of one parameter's mean.
 
-    The effective sample size of the draws themselves over the split chains
-    (no rank normalisation, unlike :func:`ess_bulk`): what sets the Monte
-    Carlo error of the posterior mean, ``sd / sqrt(ess_mean)``. Below the
-    bulk ESS for a heavy-tailed parameter, whose rare far draws move the
-    mean. Equals ``arviz.ess(chains, method="mean")`` (ArviZ 0.x) to
-    rounding (checked in ``tests/mcmc/test_diagnostics.py``).
-
-    Parameters
-    ----------
-    chains : array_like of shape (n_chains, n_draws)
-        Draws of one parameter (a 1-D array is a single chain).
-
-    Returns
-    -------
-    ess : float
-        NaN as for :func:`ess_bulk`.
+    That of the draws themselves over the split chains, without the rank
+    normalisation of :func:`ess_bulk` (same argument, NaN in the same
+    cases): what sets the Monte Carlo error ``sd / sqrt(ess_mean)`` of the
+    posterior mean, and below the bulk ESS for a heavy-tailed parameter,
+    whose rare far draws move the mean. Equals ``arviz.ess(chains,
+    method="mean")`` (ArviZ 0.x) to rounding.
 
     Examples
     --------

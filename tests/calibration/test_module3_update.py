@@ -1,7 +1,8 @@
 """Module 3 of an update: a day added to months of readings reweights the
 last run's draws and agrees with chains run on the same update within
-their Monte Carlo errors; an update that moves the posterior runs chains;
-the fitted attributes, summary and ArviZ export say which."""
+their Monte Carlo errors; the next day reweights the same draws; a last
+run that did not converge is not reused; the fitted attributes, summary
+and ArviZ export say which."""
 
 import pickle
 import warnings
@@ -12,27 +13,12 @@ from scipy import stats
 
 import skmba.mcmc._reweight as reweight_module
 from skmba import ModularBayesCalibrator
-from skmba.datasets import make_bridge_monitoring
-from skmba.exceptions import NonIdentifiabilityWarning
 from skmba.mcmc._diagnostics import ess_bulk, ess_mean, ess_sd, ess_tail
+from tests.calibration.bridge_year import DATA, FAST, FRAME, SIMS, X, Y, quiet
 
 pd = pytest.importorskip("pandas")
 
-DATA = make_bridge_monitoring(random_state=0)
-FRAME = DATA.frame
-X, Y = FRAME[["temperature"]], FRAME[list(DATA.response_names)]
-SIMS = dict(X_sim=DATA.X_sim, theta_sim=DATA.theta_sim, y_sim=DATA.y_sim)
-# Short chains and 2 degC bins (about 25 distinct inputs): seconds per fit.
-FAST = dict(bin_width=2.0, n_samples=1000, burn_in=300, random_state=0)
 MONTH, DAY = FRAME.index.month, FRAME.index.day
-
-
-def _quiet(call, *args, **kwargs):
-    # E and the bearings are confounded with the discrepancy on a
-    # temperature-only design (said by the identifiability warning).
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", NonIdentifiabilityWarning)
-        return call(*args, **kwargs)
 
 
 @pytest.fixture(scope="module")
@@ -41,12 +27,12 @@ def eleven_months():
     updates its own copy)."""
     cal = ModularBayesCalibrator(prior=DATA.prior, **FAST)
     rows = MONTH <= 11
-    return pickle.dumps(_quiet(cal.partial_fit, X[rows], Y[rows], **SIMS))
+    return pickle.dumps(quiet(cal.partial_fit, X[rows], Y[rows], **SIMS))
 
 
 def _update(blob, rows):
     cal = pickle.loads(blob)
-    return _quiet(cal.partial_fit, X[rows], Y[rows])
+    return quiet(cal.partial_fit, X[rows], Y[rows])
 
 
 def _sd_error(samples, ess):
@@ -103,7 +89,7 @@ def test_the_next_day_reweights_the_same_draws_and_the_export_says_so(
     cal = _update(eleven_months, (MONTH == 12) & (DAY == 1))
     nodes, weights = cal.theta_nodes_, cal.theta_weights_
     second = (MONTH == 12) & (DAY == 2)
-    _quiet(cal.partial_fit, X[second], Y[second])
+    quiet(cal.partial_fit, X[second], Y[second])
     np.testing.assert_array_equal(cal.theta_nodes_, nodes)
     assert not np.allclose(cal.theta_weights_, weights, rtol=1e-3)
     assert len(cal.theta_history_) == 3

@@ -9,35 +9,19 @@ import numpy as np
 import pytest
 
 from skmba import ModularBayesCalibrator
-from skmba.datasets import make_bridge_monitoring
-from skmba.exceptions import NonIdentifiabilityWarning
+from tests.calibration.bridge_year import DATA, FAST, FRAME, SIMS, X, Y, quiet
 
 pd = pytest.importorskip("pandas")
-
-DATA = make_bridge_monitoring(random_state=0)
-FRAME = DATA.frame
-X, Y = FRAME[["temperature"]], FRAME[list(DATA.response_names)]
-SIMS = dict(X_sim=DATA.X_sim, theta_sim=DATA.theta_sim, y_sim=DATA.y_sim)
-# Short chains and 2 degC bins (about 25 distinct inputs): seconds per fit.
-FAST = dict(bin_width=2.0, n_samples=1000, burn_in=300, random_state=0)
 
 
 def _calibrator(**params):
     return ModularBayesCalibrator(prior=DATA.prior, **{**FAST, **params})
 
 
-def _quiet(call, *args, **kwargs):
-    # E and the bearings are confounded with the discrepancy on a
-    # temperature-only design (said by the identifiability warning).
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", NonIdentifiabilityWarning)
-        return call(*args, **kwargs)
-
-
 def _in_batches(cal, labels):
     for k, label in enumerate(np.unique(labels)):
         rows = labels == label
-        _quiet(cal.partial_fit, X[rows], Y[rows], **(SIMS if k == 0 else {}))
+        quiet(cal.partial_fit, X[rows], Y[rows], **(SIMS if k == 0 else {}))
     return cal
 
 
@@ -64,7 +48,7 @@ def test_batches_agree_with_one_fit_on_all_of_them(
     # draws).
     labels = np.asarray(batches)
     updated = _in_batches(_calibrator(discrepancy_uncertainty=uncertainty), labels)
-    full = _quiet(_calibrator(discrepancy_uncertainty=uncertainty).fit, X, Y, **SIMS)
+    full = quiet(_calibrator(discrepancy_uncertainty=uncertainty).fit, X, Y, **SIMS)
     sd = np.sqrt(np.diag(full.theta_cov_))
     assert np.all(np.abs(updated.theta_mean_ - full.theta_mean_) <= mean_tol * sd)
     ratio = np.sqrt(np.diag(updated.theta_cov_)) / sd
@@ -80,11 +64,11 @@ def test_batches_agree_with_one_fit_on_all_of_them(
 
 def test_first_call_is_fit_and_history_labels_each_update():
     january = FRAME.index.month == 1
-    first = _quiet(_calibrator().partial_fit, X[january], Y[january], **SIMS)
-    fitted = _quiet(_calibrator().fit, X[january], Y[january], **SIMS)
+    first = quiet(_calibrator().partial_fit, X[january], Y[january], **SIMS)
+    fitted = quiet(_calibrator().fit, X[january], Y[january], **SIMS)
     np.testing.assert_array_equal(first.theta_samples_, fitted.theta_samples_)
     week = (FRAME.index.month == 2) & (FRAME.index.day <= 7)
-    _quiet(first.partial_fit, X[week], Y[week])
+    quiet(first.partial_fit, X[week], Y[week])
     history = first.theta_history_
     assert list(history.index) == [FRAME.index[january][-1], FRAME.index[week][-1]]
     assert history.index.name == "until"
@@ -97,14 +81,14 @@ def test_first_call_is_fit_and_history_labels_each_update():
     with pytest.raises(ValueError, match="sample"):
         first.fit(X[:1], Y[:1], **SIMS)
     assert len(first.theta_history_) == 2 and len(first._history) == 2
-    _quiet(first.fit, X[week], Y[week], **SIMS)
+    quiet(first.fit, X[week], Y[week], **SIMS)
     assert len(first.theta_history_) == 1
 
 
 def test_repeated_inputs_count_once_in_the_cost():
     week = slice(0, 168)
     cal = _calibrator(bin_width=None, discrepancy_uncertainty="plug-in")
-    _quiet(cal.fit, X[week], Y[week], **SIMS)
+    quiet(cal.fit, X[week], Y[week], **SIMS)
     n_means = cal.theta_history_["n_means"].iloc[-1]
     # A week's temperatures to 0.1 degC: fewer than its 168 hours
     assert n_means == len(np.unique(X[week].to_numpy())) < 120
@@ -112,7 +96,7 @@ def test_repeated_inputs_count_once_in_the_cost():
 
 
 def test_bad_batches_are_refused():
-    cal = _quiet(_calibrator().partial_fit, X[:200], Y[:200], **SIMS)
+    cal = quiet(_calibrator().partial_fit, X[:200], Y[:200], **SIMS)
     with pytest.raises(ValueError, match="pass simulations to the first call"):
         cal.partial_fit(X[200:300], Y[200:300], **SIMS)
     with pytest.raises(ValueError, match=r"has columns \['f1', 'f2', 'f3', 'g'\]"):
@@ -129,7 +113,7 @@ def test_bad_batches_are_refused():
     reordered.iloc[[5, 6]] = np.nan
     message = r"2 row\(s\) of y have no measured response .* rows \[205, 206\]"
     with pytest.warns(UserWarning, match=message):
-        _quiet(cal.partial_fit, X[200:300], reordered)
+        quiet(cal.partial_fit, X[200:300], reordered)
     expected = Y[200:300].to_numpy()
     np.testing.assert_array_equal(cal.y_obs_[-98:], np.delete(expected, [5, 6], 0))
     # and not again by the next update
