@@ -43,6 +43,13 @@ from skmba.sensor_design._subset_likelihood import (
     SubsetLikelihood,
 )
 
+#: Nodes of the prior's stage-1 rule (:mod:`~skmba.sensor_design.
+#: _posterior_moments`), shared by every subset and replicate: Gauss-Legendre
+#: for one parameter, scrambled Sobol points for several. Where the design is
+#: large, the likelihood's small wiggles in theta (the emulator's) outrun 33
+#: nodes: ``validation/studies/designer_quadrature.py`` measures it.
+PRIOR_NODES = {"one": 33, "several": 64}
+
 
 @dataclass(frozen=True)
 class MonteCarloContext:
@@ -98,7 +105,7 @@ class MonteCarloContext:
             priors = _ranges_in_units(
                 priors, units, kernel_d.roughness_power, user_units
             )
-        n_nodes = 33 if prior.dim == 1 else 64
+        n_nodes = PRIOR_NODES["one" if prior.dim == 1 else "several"]
         nodes, weights = prior.integration_nodes(n_nodes, random_state=seeds[1])
         pieces = design.pieces(scaler.theta(nodes))
         return cls(
