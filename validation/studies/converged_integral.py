@@ -13,11 +13,19 @@ Two measurements of the calibrator with ``discrepancy_tol`` set (issue 30):
   ``random_state=seed`` (the reference's emulator): its posterior sd and
   mean against the joint-MCMC reference's.
 
+``--tol none`` measures module 2's fixed draws instead (the default with
+several parameters), ``--hyper-draws K`` their number (16 unless set; a
+power of two); with ``--refits``, a case and seed found in
+``--reference-csv`` also print the refits' sds over the reference's.
+
 Usage::
 
     python -m validation.studies.converged_integral --cases a1,c1,c3,freq \\
         --refits 6 --tol 0.05 --n-jobs 2
     python -m validation.studies.converged_integral --reference --tol 0.05 --n-jobs 2
+    python -m validation.studies.converged_integral --cases a2 --refits 4 \\
+        --tol none --hyper-draws 64 --n-jobs 2 \\
+        --reference-csv validation/results/jref_a2_field_prior/joint_reference.csv
 
 Quoted in ``docs/validity.rst`` ("The same data, the same interval").
 """
@@ -34,6 +42,7 @@ import numpy as np
 import threadpoolctl
 from joblib import Parallel, delayed
 
+import skmba.calibration._module2_posterior as module2_posterior
 from skmba import ModularBayesCalibrator
 from skmba.calibration._module2_converged_nodes import weighted_quantiles
 from validation.suite import registry
@@ -46,8 +55,20 @@ REFERENCE = (
 )
 
 
-def fit_summary(name, seed, random_state, tol):
-    """One fit: mean, sd, 95 % ends, their reported errors, draws, seconds."""
+def fit_summary(name, seed, random_state, tol, hyper_draws=None):
+    """One fit: mean, sd, 95 % ends, their reported errors, draws, seconds.
+    ``hyper_draws`` sets module 2's number of fixed draws for this fit."""
+    defaults = module2_posterior.fit_hyperposterior.__kwdefaults__
+    saved = defaults["n_draws"]
+    if hyper_draws is not None:
+        defaults["n_draws"] = hyper_draws
+    try:
+        return _fit_summary(name, seed, random_state, tol)
+    finally:
+        defaults["n_draws"] = saved
+
+
+def _fit_summary(name, seed, random_state, tol):
     case = registry()[name].build(seed)
     started = time.perf_counter()
     with threadpoolctl.threadpool_limits(1), warnings.catch_warnings():
@@ -73,16 +94,28 @@ def fit_summary(name, seed, random_state, tol):
     sd = np.sqrt(np.diag(cal.theta_cov_))
     return {
         "values": np.vstack([cal.theta_mean_, sd, ends]),  # (4, r)
-        "mcse": cal.theta_mcse_,
+        # NaN without an estimate (module 2's fixed draws)
+        "mcse": np.asarray(
+            getattr(cal, "theta_mcse_", None)
+            if getattr(cal, "theta_mcse_", None) is not None
+            else np.full((4, len(sd)), np.nan),
+            float,
+        ),
         "draws": cal.discrepancy_draws_,
         "seconds": time.perf_counter() - started,
     }
 
 
-def refit_row(name, fits, j=0):
+def refit_row(name, fits, j=0, reference_sd=None):
     """The spread over refits of one case's data, in its posterior sds, for
-    parameter ``j``."""
+    parameter ``j``; with ``reference_sd``, each refit's sd over it."""
     values = np.array([f["values"][:, j] for f in fits])
+    against = (
+        ""
+        if reference_sd is None
+        else "  sd / reference "
+        + np.array2string(values[:, 1] / reference_sd, precision=2)
+    )
     sd = values[:, 1].mean()
     deviation = np.abs(values - values.mean(axis=0)).max(axis=0) / sd
     reported = np.mean([f["mcse"][:, j] for f in fits], axis=0) / sd
@@ -94,7 +127,7 @@ def refit_row(name, fits, j=0):
         f"{deviation[2]:.2f}, {deviation[3]:.2f} sd  reported se (mean, sd, ends) "
         f"{np.array2string(reported, precision=3)}  draws "
         f"{np.mean([f['draws'] for f in fits]):.0f}  time "
-        f"{min(seconds):.0f}-{max(seconds):.0f} s"
+        f"{min(seconds):.0f}-{max(seconds):.0f} s{against}"
     )
 
 
@@ -138,7 +171,13 @@ def _parser():
         "--only", action="store_true", help="with --reference: only --cases"
     )
     parser.add_argument("--reference-csv", type=Path, default=REFERENCE)
-    parser.add_argument("--tol", type=float, default=0.05)
+    parser.add_argument(
+        "--tol",
+        type=lambda v: None if v == "none" else float(v),
+        default=0.05,
+        help="discrepancy_tol, or none (module 2's fixed draws)",
+    )
+    parser.add_argument("--hyper-draws", type=int, default=None)
     parser.add_argument("--n-jobs", type=int, default=1)
     return parser
 
@@ -159,12 +198,19 @@ def main(argv=None):
         return
     names = args.cases.split(",")
     tasks = [(n, k) for n in names for k in range(args.refits)]
-    fits = run(delayed(fit_summary)(n, 0, k, args.tol) for n, k in tasks)
+    fits = run(
+        delayed(fit_summary)(n, 0, k, args.tol, args.hyper_draws) for n, k in tasks
+    )
+    references = (
+        {(r[0], r[2]): r[4] for r in reference_rows(args.reference_csv) if r[1] == 0}
+        if args.reference_csv.exists()
+        else {}
+    )
     for name in names:
         pairs = zip(tasks, fits, strict=True)
         mine = [f for (n, _), f in pairs if n == name]
         for j in range(mine[0]["values"].shape[1]):
-            print(refit_row(name, mine, j))
+            print(refit_row(name, mine, j, references.get((name, j))))
 
 
 if __name__ == "__main__":
