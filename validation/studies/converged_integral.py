@@ -92,15 +92,10 @@ def _fit_summary(name, seed, random_state, tol):
             ]
         ).T
     sd = np.sqrt(np.diag(cal.theta_cov_))
+    mcse = getattr(cal, "theta_mcse_", None)  # None: module 2's fixed draws
     return {
         "values": np.vstack([cal.theta_mean_, sd, ends]),  # (4, r)
-        # NaN without an estimate (module 2's fixed draws)
-        "mcse": np.asarray(
-            getattr(cal, "theta_mcse_", None)
-            if getattr(cal, "theta_mcse_", None) is not None
-            else np.full((4, len(sd)), np.nan),
-            float,
-        ),
+        "mcse": np.full((4, len(sd)), np.nan) if mcse is None else mcse,
         "draws": cal.discrepancy_draws_,
         "seconds": time.perf_counter() - started,
     }
