@@ -30,6 +30,11 @@ import numpy as np
 
 from skmba.mcmc._diagnostics import ess_bulk, ess_tail, split_rhat
 
+#: Draws per chain between checkpoints (:attr:`EssTarget.every`'s
+#: default); the chains' blocks of draws have this length too
+#: (:mod:`skmba.mcmc._chain`), so that a stop wastes no evaluated proposal.
+CHECK_EVERY = 250
+
 
 @dataclass(frozen=True)
 class EssTarget:
@@ -50,7 +55,7 @@ class EssTarget:
 
     ess: float
     max_rhat: float = 1.01
-    every: int = 250
+    every: int = CHECK_EVERY
 
     def checkpoints(self, burn_in, total):
         """The steps (burn-in included) after which the draws are judged;

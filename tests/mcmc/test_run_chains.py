@@ -10,6 +10,7 @@ from scipy import stats
 
 from skmba.mcmc._diagnostics import check_diagnostics, ess_bulk
 from skmba.mcmc._run import ChainResult, run_chains
+from skmba.mcmc._stopping import CHECK_EVERY
 
 # A 2-D Gaussian whose scales differ by 1e5 and whose correlation is -0.9:
 # far from the default proposal (2.38^2 / 2) I, so that only an adapted
@@ -447,15 +448,17 @@ class _Batched:
 
 def test_a_batch_method_gets_the_independence_proposals_of_a_block():
     batched = _Batched()
-    kwargs = dict(n_samples=2048, burn_in=500, n_jobs=1)
+    kwargs = dict(n_samples=2000, burn_in=500, n_jobs=1)
     starts = np.ones((1, 2))
     result = _mixed(batched, starts, 0.9, 4, **kwargs)
     # The same draws as one call per proposal.
     _assert_identical(result, _mixed(standard_normal, starts, 0.9, 4, **kwargs))
-    # From halfway through the burn-in on: blocks of 50 steps, then of 1024.
-    assert len(batched.calls) == 5 + 2
+    # From halfway through the burn-in on: blocks of 50 steps, then blocks
+    # as long as the spacing of the ESS target's checkpoints (250 draws).
+    assert CHECK_EVERY == 250
+    assert len(batched.calls) == 5 + 8
     assert all(30 <= c <= 50 for c in batched.calls[:5])
-    assert all(850 <= c <= 1000 for c in batched.calls[5:])
+    assert all(200 <= c <= 250 for c in batched.calls[5:])
 
 
 def test_a_batch_method_that_returns_nan_is_an_error():
@@ -705,12 +708,12 @@ NEARBY = (MEAN + np.array([SD[0], 0.0]), 2.0 * COV)
 
 def test_moments_start_the_independence_moves_at_the_first_step():
     batched = _Batched()
-    kwargs = dict(n_samples=2048, burn_in=500, n_jobs=1)
+    kwargs = dict(n_samples=2000, burn_in=500, n_jobs=1)
     starts = np.ones((1, 2))
     result = _mixed(batched, starts, 0.9, 4, moments=(np.zeros(2), np.eye(2)), **kwargs)
     # Every block of the burn-in (10 of 50 steps) gets its proposals, then
-    # the two blocks of the draws.
-    assert len(batched.calls) == 10 + 2
+    # the eight blocks of the draws.
+    assert len(batched.calls) == 10 + 8
     assert all(30 <= c <= 50 for c in batched.calls[:10])
     assert not np.array_equal(
         result.samples, _mixed(batched, starts, 0.9, 4, **kwargs).samples

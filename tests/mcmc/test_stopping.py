@@ -63,7 +63,9 @@ def test_acceptance_rate_counts_the_draws_kept(full):
     # Every kept draw is the previous one (rejected) or a new point.
     moved = np.any(np.diff(stopped.samples, axis=1) != 0, axis=2)
     accepted = (moved.sum(axis=1) + 1) / stopped.samples.shape[1]
-    assert np.all(np.abs(stopped.acceptance_rate - accepted) <= 1.5 / 1000)
+    # (the first draw counts as a move: off by at most one draw)
+    m = stopped.samples.shape[1]
+    assert np.all(np.abs(stopped.acceptance_rate - accepted) <= 1.5 / m)
 
 
 def test_unmixed_chains_do_not_stop():
