@@ -171,10 +171,15 @@ def regression_log_likelihoods(log_det_S, W, top, rss_top_perp, log_det_A, n_dat
 #: module-2 draw, one thread) one theta took 0.43 ms on its own, 0.25 ms in
 #: stacks of 1-2 MiB, 0.34 ms of 16 MiB and 1.5 ms of 64 MiB.
 STACK_BYTES = 2**20
+#: Bytes of model terms (order ``m`` per theta) that one computation of
+#: the emulator's conditionals may hold: a batch of thetas (e.g. a chain's
+#: independence proposals) gets its conditionals together, in BLAS calls
+#: over all of them, and is then factored in stacks of :data:`STACK_BYTES`.
+CONDITIONAL_BYTES = 2**24
 
 
-def stack_chunks(n_values, per_value, m, c):
-    """Slices of ``range(n_values)`` whose stacks fit :data:`STACK_BYTES`.
+def stack_chunks(n_values, per_value, m, c, budget=STACK_BYTES):
+    """Slices of ``range(n_values)`` whose stacks fit ``budget`` bytes.
 
     Each value (a theta) stacks ``per_value`` bordered matrices of order
     ``m + c`` (:func:`~skmba._core.linalg.stacked_whitening`); a chunk holds at
@@ -187,7 +192,7 @@ def stack_chunks(n_values, per_value, m, c):
     >>> stack_chunks(3, 4, 300, 3)
     [slice(0, 1, None), slice(1, 2, None), slice(2, 3, None)]
     """
-    size = max(1, STACK_BYTES // (8 * per_value * (m + c) ** 2))
+    size = max(1, budget // (8 * per_value * (m + c) ** 2))
     return [slice(i, min(n_values, i + size)) for i in range(0, n_values, size)]
 
 

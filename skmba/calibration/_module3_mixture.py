@@ -23,7 +23,7 @@ from scipy import special
 
 from skmba._core.linalg import FactorizationError, n_workers
 from skmba._core.threads import BlasTask
-from skmba.calibration._module3_likelihood import stack_chunks
+from skmba.calibration._module3_likelihood import CONDITIONAL_BYTES, stack_chunks
 
 #: A module-2 draw whose weight ``p(phi_k | theta, data)`` stays below this
 #: around the posterior of theta is left out of the sampler's mixture
@@ -153,22 +153,27 @@ class ModelMixture:
         K, m = self._S_fixed.shape[:2]
         per_theta = K if labels is None else 1
         out = np.empty((len(thetas), per_theta))
-        for chunk in stack_chunks(len(thetas), per_theta, m, base.P + 1):
-            cond, terms = base.conditionals(thetas[chunk])
-            Z = base.field_rows(cond)
-            B = len(terms)
-            if labels is None:
-                S = (self._S_fixed[None] + terms[:, None]).reshape(B * K, m, m)
-                Z = np.broadcast_to(Z[:, None], (B, K, *Z.shape[1:])).reshape(
-                    B * K, *Z.shape[1:]
+        for group in stack_chunks(len(thetas), 1, m, 0, CONDITIONAL_BYTES):
+            cond, terms = base.conditionals(thetas[group])
+            rows = base.field_rows(cond)
+            for chunk in stack_chunks(len(terms), per_theta, m, base.P + 1):
+                Z, T = rows[chunk], terms[chunk]
+                B, at = (
+                    len(T),
+                    slice(group.start + chunk.start, group.start + chunk.stop),
                 )
-            else:
-                S = self._S_fixed[labels[chunk]] + terms
-            try:
-                values = base.stacked_log_likelihoods(S, Z, self._noise_floor)
-            except FactorizationError:  # at one (theta, draw) of the stack?
-                values = _one_by_one(base, S, Z, self._noise_floor)
-            out[chunk] = values.reshape(B, per_theta)
+                if labels is None:
+                    S = (self._S_fixed[None] + T[:, None]).reshape(B * K, m, m)
+                    Z = np.broadcast_to(Z[:, None], (B, K, *Z.shape[1:])).reshape(
+                        B * K, *Z.shape[1:]
+                    )
+                else:
+                    S = self._S_fixed[labels[at]] + T
+                try:
+                    values = base.stacked_log_likelihoods(S, Z, self._noise_floor)
+                except FactorizationError:  # at one (theta, draw) of the stack?
+                    values = _one_by_one(base, S, Z, self._noise_floor)
+                out[at] = values.reshape(B, per_theta)
         if labels is None:
             return self.log_weights + self._factors + out
         return self.log_weights[labels] + self._factors[labels] + out[:, 0]
