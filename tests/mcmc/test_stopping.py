@@ -6,8 +6,8 @@ import pytest
 
 from skmba.mcmc._diagnostics import ess_bulk, ess_tail, split_rhat
 from skmba.mcmc._run import run_chains
-from skmba.mcmc._stopping import EssTarget
-from tests.mcmc.test_run_chains import _GaussianMixture
+from skmba.mcmc._stopping import CHECK_EVERY, EssTarget
+from tests.mcmc.test_run_chains import _Batched, _GaussianMixture
 
 SCALES = np.array([10.0, 0.1])
 
@@ -117,3 +117,20 @@ def test_a_parameter_that_never_moved_does_not_meet_the_target():
     draws = np.random.default_rng(4).normal(size=(4, 500, 2))
     draws[:, :, 1] = 1.0
     assert not EssTarget(10).met(draws)
+
+
+def test_chains_stopped_at_a_checkpoint_evaluated_no_proposal_beyond_it():
+    """The blocks of draws are as long as the checkpoints' spacing: a stop
+    wastes no evaluated independence proposal (blocks of 1,024 steps had
+    evaluated about 900 per chain when a run stopped at 500 draws)."""
+    batched = _Batched()
+    stopped = run_chains(batched, np.zeros((2, 2)), n_samples=3000, burn_in=500,
+                         independence=0.9, random_state=0, n_jobs=1,
+                         stopping=EssTarget(1000))  # fmt: skip
+    m = stopped.samples.shape[1]
+    assert m < 3000 and m % CHECK_EVERY == 0
+    after = [c for c in batched.calls if c > 50]  # burn-in blocks: 50 steps
+    assert len(after) == 2 * (m // CHECK_EVERY)
+    # the proposals evaluated after burn-in are those of the draws kept:
+    # about 9 in 10 of their steps, none beyond them
+    assert 0.85 * 2 * m <= sum(after) <= 0.95 * 2 * m
