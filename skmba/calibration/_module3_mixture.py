@@ -157,11 +157,8 @@ class ModelMixture:
             cond, terms = base.conditionals(thetas[group])
             rows = base.field_rows(cond)
             for chunk in stack_chunks(len(terms), per_theta, m, base.P + 1):
-                Z, T = rows[chunk], terms[chunk]
-                B, at = (
-                    len(T),
-                    slice(group.start + chunk.start, group.start + chunk.stop),
-                )
+                Z, T, B = rows[chunk], terms[chunk], chunk.stop - chunk.start
+                at = slice(group.start + chunk.start, group.start + chunk.stop)
                 if labels is None:
                     S = (self._S_fixed[None] + T[:, None]).reshape(B * K, m, m)
                     Z = np.broadcast_to(Z[:, None], (B, K, *Z.shape[1:])).reshape(

@@ -71,7 +71,8 @@ _GAIN_EXPONENT = 0.5
 # Number of steps per block of pre-drawn random numbers (and of independence
 # proposals evaluated together) after burn-in: the spacing of the ESS
 # target's checkpoints, so that chains stopped at one have evaluated no
-# proposal past it (blocks of 1024 wasted a sixth of 4.7.3's evaluations).
+# proposal past it (with blocks of 1024, 4.7.3's chains stopped at 1,250
+# or 1,500 draws left a quarter or a sixth of their evaluations unused).
 _BLOCK = CHECK_EVERY
 # Independence moves begin this far into the burn-in: the first part is a
 # random walk whose scale and shape adapt at full speed (its Robbins-Monro
