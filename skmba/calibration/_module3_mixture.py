@@ -29,6 +29,9 @@ from skmba.calibration._module3_likelihood import CONDITIONAL_BYTES, stack_chunk
 #: around the posterior of theta is left out of the sampler's mixture
 #: (:meth:`ModelMixture.restricted`).
 IDLE_WEIGHT = 1e-10
+#: Thetas, evenly thinned from a run's draws, at which the draws left out
+#: are found or checked idle (the chains' check, an update's reweighting).
+IDLE_CHECK_THETAS = 100
 #: Thetas per joblib task of :meth:`ModelMixture.spread_component_log_likelihoods`:
 #: fixed by the problem, so that the tasks, hence the bits, do not depend on
 #: ``n_jobs``.
@@ -217,7 +220,29 @@ class ModelMixture:
                 continue  # no draw can be evaluated there: no evidence
         if not weights:
             return self, np.arange(len(self.models))
-        kept = np.flatnonzero(np.max(weights, axis=0) > tol)
+        return self._keeping(np.flatnonzero(np.max(weights, axis=0) > tol))
+
+    def spread_restricted(self, thetas, n_jobs=None, tol=IDLE_WEIGHT):
+        """:meth:`restricted` at many ``thetas`` (B, r), their values
+        computed as :meth:`spread_component_log_likelihoods` does (a theta
+        where no draw can be evaluated gives no evidence).
+
+        Raises
+        ------
+        FactorizationError
+            As :meth:`batch_component_log_likelihoods`.
+        """
+        if len(self.models) == 1:
+            return self, np.arange(1)
+        values = self.spread_component_log_likelihoods(thetas, n_jobs)
+        values = values[np.any(np.isfinite(values), axis=1)]
+        if not len(values):
+            return self, np.arange(len(self.models))
+        weights = np.exp(values - special.logsumexp(values, axis=1, keepdims=True))
+        return self._keeping(np.flatnonzero(np.max(weights, axis=0) > tol))
+
+    def _keeping(self, kept):
+        """The mixture of the draws ``kept`` (itself when all are) and them."""
         if len(kept) == len(self.models):
             return self, kept
         other = object.__new__(type(self))

@@ -31,6 +31,7 @@ from skmba._core.linalg import (
 from skmba._core.progress import as_progress
 from skmba._core.validation import seed_sequence
 from skmba._core.warn import warn
+from skmba.calibration._module3_mixture import IDLE_CHECK_THETAS
 from skmba.mcmc._diagnostics import check_diagnostics
 from skmba.mcmc._posterior import PosteriorResult, laplace
 from skmba.mcmc._run import run_chains
@@ -355,8 +356,6 @@ def _chain_starts(log_posterior, n_chains, rng, earlier=None):
 #: curved ridges.
 INDEPENDENCE = 0.9
 
-#: Kept posterior draws at which :func:`_without_idle_draws` is checked.
-_IDLE_CHECK_DRAWS = 100
 #: Weight of a left-out module-2 draw at a posterior draw above which the
 #: chains are run again over every draw.
 _IDLE_CHECK_WEIGHT = 1e-6
@@ -392,7 +391,7 @@ def _idle_weight(log_posterior, kept, samples, n_jobs=None):
     (evaluated in ``n_jobs`` joblib tasks)."""
     model = log_posterior.model
     left_out = np.setdiff1d(np.arange(len(model.models)), kept)
-    step = max(1, len(samples) // _IDLE_CHECK_DRAWS)
+    step = max(1, len(samples) // IDLE_CHECK_THETAS)
     thetas = log_posterior.scaler.theta(samples[::step])
     values = model.spread_component_log_likelihoods(thetas, n_jobs)
     weights = np.exp(values - special.logsumexp(values, axis=1, keepdims=True))

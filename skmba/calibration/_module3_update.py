@@ -4,7 +4,9 @@
 to many earlier ones, so theta's posterior moves little. Before running
 chains, :func:`reweighted_posterior` evaluates the new log posterior (the
 mixture over the update's module-2 draws) once at each draw of the last
-MCMC run's :class:`~skmba.mcmc._reweight.Anchor`, in joblib tasks, and
+MCMC run's :class:`~skmba.mcmc._reweight.Anchor`, in joblib tasks (over
+the module-2 draws that carry weight at 100 evenly thinned nodes, as the
+chains do), and
 returns the reweighted posterior (:mod:`skmba.mcmc._reweight`); None when
 the weights are too uneven, and module 3 then runs its chains, started from
 the last posterior. ``tests/calibration/test_module3_update.py`` checks it
@@ -16,6 +18,7 @@ import time
 import numpy as np
 
 from skmba._core.linalg import FactorizationError
+from skmba.calibration._module3_mixture import IDLE_CHECK_THETAS
 from skmba.mcmc._diagnostics import MIN_ESS
 from skmba.mcmc._reweight import REWEIGHT_SHARE, Anchor, reweighted
 
@@ -54,10 +57,13 @@ def reweighted_posterior(
     log_density = np.full(len(thetas), -np.inf)
     if not inside.any():  # no node inside the prior's support
         return None
+    nodes = log_post.scaler.theta(thetas[inside])
+    model = log_post.model
     try:
-        values = log_post.model.spread_component_log_likelihoods(
-            log_post.scaler.theta(thetas[inside]), n_jobs
-        )
+        # The module-2 draws idle at evenly thinned nodes change nothing.
+        probes = nodes[:: max(1, len(nodes) // IDLE_CHECK_THETAS)]
+        used, kept = model.spread_restricted(probes, n_jobs)
+        values = used.spread_component_log_likelihoods(nodes, n_jobs)
     except FactorizationError:
         return None  # the chains' own checks say why
     log_density[inside] = log_prior[inside] + np.logaddexp.reduce(values, axis=1)
@@ -71,6 +77,7 @@ def reweighted_posterior(
             )
         say(
             f"module 3: the last run's {len(thetas)} draws reweighted in "
-            f"{time.perf_counter() - started:.1f} s; {outcome}"
+            f"{time.perf_counter() - started:.1f} s over the {len(kept)} of "
+            f"{len(model.models)} module-2 draws with weight there; {outcome}"
         )
     return posterior

@@ -221,6 +221,39 @@ def test_restricted_keeps_the_draws_with_weight(problem):
     assert same is restricted and len(kept) == 6
 
 
+def test_spread_restricted_keeps_what_restricted_keeps(problem):
+    """At many thetas, evaluated in joblib tasks: the same draws as
+    :meth:`restricted` one theta at a time, and an unevaluable theta gives
+    no evidence."""
+    draws = _draws(K=6, seed=3)
+    idle = DiscrepancyComponent(
+        Gauss(roughness=1.0), 0.1 * np.eye(2), 1e3 * np.ones(2), "constant"
+    )
+    draws = HyperposteriorDraws(
+        None,
+        [*draws.components, idle],
+        np.append(draws.log_weights, 0.0),
+        None,
+        draws.noise_mean,
+        draws.noise_ess,
+    )
+    mix = ModelMixture(problem[1], draws)
+    thetas = np.linspace(-0.5, 0.5, 30)[:, None]
+    spread, kept = mix.spread_restricted(thetas, n_jobs=2)
+    one_by_one, expected = mix.restricted(list(thetas))
+    np.testing.assert_array_equal(kept, expected)
+    np.testing.assert_array_equal(kept, np.arange(6))
+    np.testing.assert_array_equal(
+        spread.batch_component_log_likelihoods(thetas),
+        one_by_one.batch_component_log_likelihoods(thetas),
+    )
+    # at tol 0 every draw weighs something: the mixture itself; one draw
+    # (the plug-in) always matters
+    assert mix.spread_restricted(thetas, tol=0.0)[0] is mix
+    single = ModelMixture(problem[1], _draws(K=1, seed=5))
+    assert single.spread_restricted(thetas)[0] is single
+
+
 def test_restricted_skips_thetas_that_cannot_be_evaluated(problem, monkeypatch):
     mix = ModelMixture(problem[1], _draws(K=3, seed=4))
     good, bad = np.array([0.1]), np.array([5.0])

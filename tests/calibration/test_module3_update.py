@@ -13,6 +13,7 @@ from scipy import stats
 
 import skmba.mcmc._reweight as reweight_module
 from skmba import ModularBayesCalibrator
+from skmba.calibration._module3_mixture import IDLE_WEIGHT, ModelMixture
 from skmba.mcmc._diagnostics import ess_bulk, ess_mean, ess_sd, ess_tail
 from tests.calibration.bridge_year import DATA, FAST, FRAME, SIMS, X, Y, quiet
 
@@ -81,6 +82,35 @@ def test_a_day_reweights_the_last_draws_as_chains_would(eleven_months, monkeypat
     )
     ratio = np.sqrt(np.diag(cal.theta_cov_)) / sd
     assert np.all(np.abs(ratio - 1.0) < 4 * se_sd), (ratio, se_sd)
+
+
+def test_the_reweighting_leaves_out_idle_draws_and_loses_nothing(
+    eleven_months, monkeypatch
+):
+    """The update's likelihoods at the nodes are over the module-2 draws
+    with weight at 100 thinned nodes: the weights are those over every
+    draw, to the idle draws' share."""
+    day = (MONTH == 12) & (DAY == 1)
+    counts, original = [], ModelMixture.spread_restricted
+
+    def spy(self, thetas, n_jobs=None, tol=IDLE_WEIGHT):
+        used, kept = original(self, thetas, n_jobs, tol)
+        counts.append((len(kept), len(self.models), len(thetas)))
+        return used, kept
+
+    monkeypatch.setattr(ModelMixture, "spread_restricted", spy)
+    fast = _update(eleven_months, day)
+    [(kept, every, probes)] = counts
+    assert kept < every and 100 <= probes < 200  # some draws left out
+    monkeypatch.setattr(
+        ModelMixture,
+        "spread_restricted",
+        lambda self, thetas, n_jobs=None, tol=0.0: (self, np.arange(len(self.models))),
+    )
+    full = _update(eleven_months, day)
+    np.testing.assert_array_equal(fast.theta_nodes_, full.theta_nodes_)
+    np.testing.assert_allclose(fast.theta_weights_, full.theta_weights_, rtol=1e-7)
+    np.testing.assert_allclose(fast.theta_mean_, full.theta_mean_, rtol=1e-9)
 
 
 def test_the_next_day_reweights_the_same_draws_and_the_export_says_so(
