@@ -6,10 +6,9 @@ chains, :func:`reweighted_posterior` evaluates the new log posterior (the
 mixture over the update's module-2 draws) once at each draw of the last
 MCMC run's :class:`~skmba.mcmc._reweight.Anchor`, in joblib tasks (over
 the module-2 draws that carry weight at 100 evenly thinned nodes, as the
-chains do), and
-returns the reweighted posterior (:mod:`skmba.mcmc._reweight`); None when
-the weights are too uneven, and module 3 then runs its chains, started from
-the last posterior. ``tests/calibration/test_module3_update.py`` checks it
+chains do), and returns the reweighted posterior
+(:mod:`skmba.mcmc._reweight`); None when the weights are too uneven, and
+module 3 then runs its chains, started from the last posterior. ``tests/calibration/test_module3_update.py`` checks it
 against the chains.
 """
 
