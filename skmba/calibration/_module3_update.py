@@ -8,8 +8,8 @@ MCMC run's :class:`~skmba.mcmc._reweight.Anchor`, in joblib tasks (over
 the module-2 draws that carry weight at 100 evenly thinned nodes, as the
 chains do), and returns the reweighted posterior
 (:mod:`skmba.mcmc._reweight`); None when the weights are too uneven, and
-module 3 then runs its chains, started from the last posterior. ``tests/calibration/test_module3_update.py`` checks it
-against the chains.
+module 3 then runs its chains, started from the last posterior.
+``tests/calibration/test_module3_update.py`` checks it against the chains.
 """
 
 import time
