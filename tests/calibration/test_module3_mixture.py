@@ -187,14 +187,14 @@ def test_copies_have_their_own_caches(problem):
     assert other.log_likelihood(t) == mix.log_likelihood(t)
 
 
-def test_restricted_keeps_the_draws_with_weight(problem):
-    gm = problem[1]
+def _with_an_idle_draw():
+    """Six draws and a seventh of absurd noise, which carries no weight
+    anywhere near the data."""
     draws = _draws(K=6, seed=3)
-    # A draw of absurd noise carries no weight anywhere near the data.
     idle = DiscrepancyComponent(
         Gauss(roughness=1.0), 0.1 * np.eye(2), 1e3 * np.ones(2), "constant"
     )
-    draws = HyperposteriorDraws(
+    return HyperposteriorDraws(
         None,
         [*draws.components, idle],
         np.append(draws.log_weights, 0.0),
@@ -202,6 +202,11 @@ def test_restricted_keeps_the_draws_with_weight(problem):
         draws.noise_mean,
         draws.noise_ess,
     )
+
+
+def test_restricted_keeps_the_draws_with_weight(problem):
+    gm = problem[1]
+    draws = _with_an_idle_draw()
     mix = ModelMixture(gm, draws)
     thetas = [np.array([t]) for t in (-0.5, 0.0, 0.5)]
     restricted, kept = mix.restricted(thetas)
@@ -225,19 +230,7 @@ def test_spread_restricted_keeps_what_restricted_keeps(problem):
     """At many thetas, evaluated in joblib tasks: the same draws as
     :meth:`restricted` one theta at a time, and an unevaluable theta gives
     no evidence."""
-    draws = _draws(K=6, seed=3)
-    idle = DiscrepancyComponent(
-        Gauss(roughness=1.0), 0.1 * np.eye(2), 1e3 * np.ones(2), "constant"
-    )
-    draws = HyperposteriorDraws(
-        None,
-        [*draws.components, idle],
-        np.append(draws.log_weights, 0.0),
-        None,
-        draws.noise_mean,
-        draws.noise_ess,
-    )
-    mix = ModelMixture(problem[1], draws)
+    mix = ModelMixture(problem[1], _with_an_idle_draw())
     thetas = np.linspace(-0.5, 0.5, 30)[:, None]
     spread, kept = mix.spread_restricted(thetas, n_jobs=2)
     one_by_one, expected = mix.restricted(list(thetas))
@@ -247,6 +240,21 @@ def test_spread_restricted_keeps_what_restricted_keeps(problem):
         spread.batch_component_log_likelihoods(thetas),
         one_by_one.batch_component_log_likelihoods(thetas),
     )
+    # a theta where no draw can be evaluated gives no evidence
+    values = mix.spread_component_log_likelihoods
+
+    def with_a_dead_theta(thetas, n_jobs=None):
+        out = values(thetas, n_jobs)
+        out[0] = -np.inf
+        return out
+
+    mix.spread_component_log_likelihoods = with_a_dead_theta
+    np.testing.assert_array_equal(mix.spread_restricted(thetas)[1], np.arange(6))
+    mix.spread_component_log_likelihoods = lambda thetas, n_jobs=None: np.full(
+        (len(thetas), 7), -np.inf
+    )
+    assert mix.spread_restricted(thetas)[0] is mix  # no evidence at all
+    del mix.spread_component_log_likelihoods
     # at tol 0 every draw weighs something: the mixture itself; one draw
     # (the plug-in) always matters
     assert mix.spread_restricted(thetas, tol=0.0)[0] is mix
