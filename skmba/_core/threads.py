@@ -28,11 +28,12 @@ Examples
 True
 """
 
+import functools
 import os
 from contextlib import contextmanager
 
 from joblib import cpu_count
-from threadpoolctl import threadpool_info, threadpool_limits
+from threadpoolctl import ThreadpoolController, threadpool_info
 
 from skmba._core.linalg import n_workers
 
@@ -116,8 +117,21 @@ def blas_threads(order, n_jobs=None):
     {1}
     """
     limit = 1 if order < SMALL_ORDER else thread_budget(n_jobs)
-    with threadpool_limits(limits=limit, user_api="blas"):
+    with _controller(os.getpid()).limit(limits=limit, user_api="blas"):
         yield limit
+
+
+@functools.cache
+def _controller(pid):
+    """The BLAS libraries of process ``pid`` (this one), found once.
+
+    Finding them scans every shared library the process has loaded, 1-4 ms
+    in a process with scikit-learn and pandas, which a limit per task would
+    repeat hundreds of times in a fit. numpy's and scipy's libraries, the
+    ones skmba computes with, are loaded when skmba is imported; the
+    process id keys the cache so that a forked worker finds its own.
+    """
+    return ThreadpoolController()
 
 
 def describe_threads():

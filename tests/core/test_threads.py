@@ -39,6 +39,34 @@ def test_large_work_in_the_calling_process_uses_the_process_threads():
             assert blas_now() == {limit}
 
 
+def test_the_libraries_are_found_once_per_process(monkeypatch):
+    # Finding them scans every loaded shared library: once, not per limit.
+    import threadpoolctl
+
+    from skmba._core import threads
+
+    made = []
+
+    class Counted(threadpoolctl.ThreadpoolController):
+        def __init__(self):
+            made.append(1)
+            super().__init__()
+
+    monkeypatch.setattr(threads, "ThreadpoolController", Counted)
+    threads._controller.cache_clear()
+    try:
+        before = blas_now()
+        for _ in range(3):
+            with blas_threads(SMALL_ORDER - 1):
+                assert blas_now() == {1}
+            assert blas_now() == before
+        assert len(made) == 1
+        threads._controller(-1)  # another process id: its own libraries
+        assert len(made) == 2
+    finally:
+        threads._controller.cache_clear()
+
+
 @pytest.mark.parametrize("n_jobs", [1, 2, 4, -1])
 def test_a_task_gets_its_share_of_the_cores(n_jobs, monkeypatch):
     monkeypatch.setattr("skmba._core.threads.cpu_count", lambda: 8)
