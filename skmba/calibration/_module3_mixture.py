@@ -227,19 +227,28 @@ class ModelMixture:
         computed as :meth:`spread_component_log_likelihoods` does (a theta
         where no draw can be evaluated gives no evidence).
 
+        Returns
+        -------
+        mixture : ModelMixture
+        kept : ndarray of int
+            As :meth:`restricted`.
+        values : ndarray of shape (B, K)
+            :meth:`spread_component_log_likelihoods` at ``thetas``, every
+            draw: computed anyway, for a caller that needs them.
+
         Raises
         ------
         FactorizationError
             As :meth:`batch_component_log_likelihoods`.
         """
-        if len(self.models) == 1:
-            return self, np.arange(1)
         values = self.spread_component_log_likelihoods(thetas, n_jobs)
-        values = values[np.any(np.isfinite(values), axis=1)]
-        if not len(values):
-            return self, np.arange(len(self.models))
-        weights = np.exp(values - special.logsumexp(values, axis=1, keepdims=True))
-        return self._keeping(np.flatnonzero(np.max(weights, axis=0) > tol))
+        if len(self.models) == 1:
+            return self, np.arange(1), values
+        if not np.isfinite(values).any():
+            return self, np.arange(len(self.models)), values
+        weights = draw_weights_of(values)  # zero rows give no evidence
+        used, kept = self._keeping(np.flatnonzero(np.max(weights, axis=0) > tol))
+        return used, kept, values
 
     def _keeping(self, kept):
         """The mixture of the draws ``kept`` (itself when all are) and them."""
@@ -256,6 +265,17 @@ class ModelMixture:
         """Kish's effective number of draws at ``theta`` (1 to ``K``)."""
         w = self.draw_weights(theta)
         return float(1.0 / np.sum(w**2))
+
+
+def draw_weights_of(values):
+    """``p(phi_k | theta, data)`` from the component log likelihoods
+    ``values`` (B, K) of :meth:`ModelMixture.batch_component_log_likelihoods`:
+    each row normalised, a row where no draw can be evaluated all zeros."""
+    values = np.asarray(values, dtype=float)
+    weights = np.zeros(values.shape)
+    rows = np.isfinite(values).any(axis=1)
+    weights[rows] = special.softmax(values[rows], axis=1)
+    return weights
 
 
 def _one_by_one(base, S, Z, noise_floor):

@@ -21,7 +21,6 @@ import time
 from dataclasses import replace
 
 import numpy as np
-from scipy import special
 from sklearn.utils.validation import check_is_fitted
 
 from skmba._core.columns import match_columns
@@ -31,7 +30,7 @@ from skmba._core.linalg import (
 from skmba._core.progress import as_progress
 from skmba._core.validation import seed_sequence
 from skmba._core.warn import warn
-from skmba.calibration._module3_mixture import IDLE_CHECK_THETAS
+from skmba.calibration._module3_mixture import IDLE_CHECK_THETAS, draw_weights_of
 from skmba.mcmc._diagnostics import check_diagnostics
 from skmba.mcmc._posterior import PosteriorResult, laplace
 from skmba.mcmc._run import run_chains
@@ -393,8 +392,7 @@ def _idle_weight(log_posterior, kept, samples, n_jobs=None):
     left_out = np.setdiff1d(np.arange(len(model.models)), kept)
     step = max(1, len(samples) // IDLE_CHECK_THETAS)
     thetas = log_posterior.scaler.theta(samples[::step])
-    values = model.spread_component_log_likelihoods(thetas, n_jobs)
-    weights = np.exp(values - special.logsumexp(values, axis=1, keepdims=True))
+    weights = draw_weights_of(model.spread_component_log_likelihoods(thetas, n_jobs))
     return float(np.max(weights[:, left_out]))
 
 

@@ -17,7 +17,7 @@ import time
 import numpy as np
 
 from skmba._core.linalg import FactorizationError
-from skmba.calibration._module3_mixture import IDLE_CHECK_THETAS
+from skmba.calibration._module3_mixture import IDLE_CHECK_THETAS, draw_weights_of
 from skmba.mcmc._diagnostics import MIN_ESS
 from skmba.mcmc._reweight import REWEIGHT_SHARE, Anchor, reweighted
 
@@ -44,27 +44,41 @@ def reweighted_posterior(
 
     Returns
     -------
-    PosteriorResult or None
+    posterior : PosteriorResult or None
+    draw_weights : ndarray of shape (M, K) or None
+        ``p(phi_k | theta_i, data)`` at the posterior's nodes (its
+        ``nodes``, all ``M`` of the anchor's) over the update's ``K``
+        module-2 draws: zero at nodes outside the prior's support and at
+        the draws left out as idle; what module 4's rule needs
+        (:func:`~skmba.calibration._module4_prediction.prediction_rule`).
+        None with ``posterior``.
     """
     anchor = Anchor.of(earlier)
     if anchor is None:
-        return None
+        return None, None
     started = time.perf_counter()
     thetas = anchor.thetas
     log_prior = np.ravel(log_post.prior.logpdf(thetas))
-    inside = np.isfinite(log_prior)
-    log_density = np.full(len(thetas), -np.inf)
-    if not inside.any():  # no node inside the prior's support
-        return None
+    inside = np.flatnonzero(np.isfinite(log_prior))
+    if not len(inside):  # no node inside the prior's support
+        return None, None
     nodes = log_post.scaler.theta(thetas[inside])
     model = log_post.model
+    # The module-2 draws idle at evenly thinned nodes (the probes, evaluated
+    # with every draw) change nothing; the other nodes go without them.
+    probes = np.zeros(len(nodes), dtype=bool)
+    probes[:: max(1, len(nodes) // IDLE_CHECK_THETAS)] = True
+    values = np.full((len(nodes), len(model.models)), -np.inf)
     try:
-        # The module-2 draws idle at evenly thinned nodes change nothing.
-        probes = nodes[:: max(1, len(nodes) // IDLE_CHECK_THETAS)]
-        used, kept = model.spread_restricted(probes, n_jobs)
-        values = used.spread_component_log_likelihoods(nodes, n_jobs)
+        used, kept, at_probes = model.spread_restricted(nodes[probes], n_jobs)
+        values[probes] = at_probes
+        if not probes.all():
+            values[np.ix_(~probes, kept)] = used.spread_component_log_likelihoods(
+                nodes[~probes], n_jobs
+            )
     except FactorizationError:
-        return None  # the chains' own checks say why
+        return None, None  # the chains' own checks say why
+    log_density = np.full(len(thetas), -np.inf)
     log_density[inside] = log_prior[inside] + np.logaddexp.reduce(values, axis=1)
     posterior, share = reweighted(anchor, log_density, random_state)
     if say is not None:
@@ -79,4 +93,8 @@ def reweighted_posterior(
             f"{time.perf_counter() - started:.1f} s over the {len(kept)} of "
             f"{len(model.models)} module-2 draws with weight there; {outcome}"
         )
-    return posterior
+    if posterior is None:
+        return None, None
+    weights = np.zeros((len(thetas), len(model.models)))
+    weights[inside] = draw_weights_of(values)
+    return posterior, weights

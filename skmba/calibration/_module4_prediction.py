@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from joblib import Parallel, delayed
-from scipy import linalg, special
+from scipy import linalg
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from skmba._core.linalg import (
@@ -43,6 +43,8 @@ from skmba.calibration._field_data import (
     checked_field_y,
     measured_r2,
 )
+from skmba.calibration._module3_mixture import draw_weights_of
+from skmba.mcmc._reweight import systematic_indices
 
 COMPONENTS = ("model", "discrepancy", "reality", "observation")
 _N_PREDICT_DRAWS = 200  # posterior draws used by the predictions (MCMC)
@@ -88,7 +90,12 @@ class PredictionRule:
 
 
 def prediction_rule(
-    posterior, log_posterior, random_state=None, with_draws=True, n_jobs=None
+    posterior,
+    log_posterior,
+    random_state=None,
+    with_draws=True,
+    n_jobs=None,
+    node_draw_weights=None,
 ):
     """The module-4 rule of a
     :class:`~skmba.mcmc._posterior.PosteriorResult`.
@@ -97,25 +104,35 @@ def prediction_rule(
     the rule comes with the module-2 draws ``phi_k``: every draw with its weight
     ``p(phi_k | theta, data)`` for a quadrature rule (draws below 1e-4 of their node's
     weight left out), one draw per ``theta`` picked with that probability (systematic
-    sampling, seeded by ``random_state``) for MCMC. ``with_draws=False`` leaves them out
-    (a rule that only integrates over theta, as the propagated module 2's first pass).
-    The weights at the rule's thetas are computed in ``n_jobs`` joblib tasks.
+    sampling, seeded by ``random_state``) for MCMC and reweighted draws. MCMC's
+    thetas are evenly thinned draws; reweighted ones are drawn from the weighted
+    nodes (systematic resampling, the same seed). ``with_draws=False`` leaves the
+    draws out (a rule that only integrates over theta, as the propagated module 2's
+    first pass). The weights at the rule's thetas are computed in ``n_jobs`` joblib
+    tasks, or read from ``node_draw_weights`` (M, K), the weights at a reweighted
+    posterior's nodes when the reweighting computed them.
     """
     mixture = log_posterior.model
+    rng = np.random.default_rng(seed_sequence(random_state))
+    picked = None
     if posterior.method == "quadrature":
         rule = PredictionRule.quadrature(log_posterior, posterior.interval)
+    elif posterior.method == "reweighted":
+        picked = systematic_indices(posterior.weights, _N_PREDICT_DRAWS, rng)
+        rule = PredictionRule.equal_weights(posterior.nodes[picked])
     else:
         rule = PredictionRule.equal_weights(posterior.samples)
     if not with_draws:
         return rule
-    scaler = log_posterior.scaler
-    given = _draw_weights(mixture, scaler.theta(rule.thetas), n_jobs)
+    if picked is not None and node_draw_weights is not None:
+        given = node_draw_weights[picked]
+    else:
+        given = _draw_weights(mixture, log_posterior.scaler.theta(rule.thetas), n_jobs)
     if posterior.method == "quadrature":
         keep = given >= 1e-4 * given.max(axis=1, keepdims=True)
         i, k = np.nonzero(keep)
         weights = rule.weights[i] * given[i, k]
         return PredictionRule(rule.thetas[i], weights / weights.sum(), k)
-    rng = np.random.default_rng(seed_sequence(random_state))
     u = (np.arange(len(given)) + rng.uniform()) / len(given)
     cdf = np.cumsum(given, axis=1)
     picked = (cdf < rng.permutation(u)[:, None]).sum(axis=1)
@@ -134,7 +151,7 @@ def _draw_weights(mixture, thetas, n_jobs=None):
         values = None
     if values is None or not np.all(np.isfinite(values).any(axis=1)):
         return np.array([mixture.draw_weights(t) for t in thetas])
-    return np.exp(values - special.logsumexp(values, axis=1, keepdims=True))
+    return draw_weights_of(values)
 
 
 def conditional_moments(model, theta, X, component, return_var=True, full=False):

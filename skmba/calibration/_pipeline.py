@@ -480,9 +480,9 @@ def fit_module3(inputs, module2, seed, *, first_pass=False, earlier=None):
         module2,
     )
     log_post = LogPosterior(inputs.prior, model, inputs.scaler, inputs.sims.theta)
-    posterior = None
+    posterior = draw_weights = None
     if earlier is not None:  # an update: the last run's draws may do
-        posterior = reweighted_posterior(
+        posterior, draw_weights = reweighted_posterior(
             log_post,
             earlier,
             n_jobs=settings.n_jobs,
@@ -497,6 +497,7 @@ def fit_module3(inputs, module2, seed, *, first_pass=False, earlier=None):
         random_state=seed,
         with_draws=not first_pass,
         n_jobs=settings.n_jobs,
+        node_draw_weights=draw_weights,
     )
     inputs.progress.info(posterior.summary(time.perf_counter() - started))
     return Module3Result(log_post, posterior, rule)

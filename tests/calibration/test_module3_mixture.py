@@ -232,8 +232,12 @@ def test_spread_restricted_keeps_what_restricted_keeps(problem):
     no evidence."""
     mix = ModelMixture(problem[1], _with_an_idle_draw())
     thetas = np.linspace(-0.5, 0.5, 30)[:, None]
-    spread, kept = mix.spread_restricted(thetas, n_jobs=2)
+    spread, kept, values_at = mix.spread_restricted(thetas, n_jobs=2)
     one_by_one, expected = mix.restricted(list(thetas))
+    # the values it read, over every draw, for the caller
+    np.testing.assert_array_equal(
+        values_at, mix.spread_component_log_likelihoods(thetas)
+    )
     np.testing.assert_array_equal(kept, expected)
     np.testing.assert_array_equal(kept, np.arange(6))
     np.testing.assert_array_equal(

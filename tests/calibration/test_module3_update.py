@@ -10,6 +10,7 @@ import warnings
 import numpy as np
 import pytest
 
+import skmba.calibration._pipeline as pipeline
 import skmba.mcmc._reweight as reweight_module
 from skmba import ModularBayesCalibrator
 from skmba.calibration._module3_mixture import IDLE_WEIGHT, ModelMixture
@@ -95,9 +96,9 @@ def test_the_reweighting_leaves_out_idle_draws_and_loses_nothing(
     counts, original = [], ModelMixture.spread_restricted
 
     def spy(self, thetas, n_jobs=None, tol=IDLE_WEIGHT):
-        used, kept = original(self, thetas, n_jobs, tol)
+        used, kept, values = original(self, thetas, n_jobs, tol)
         counts.append((len(kept), len(self.models), len(thetas)))
-        return used, kept
+        return used, kept, values
 
     monkeypatch.setattr(ModelMixture, "spread_restricted", spy)
     fast = _update(eleven_months, day)
@@ -106,12 +107,49 @@ def test_the_reweighting_leaves_out_idle_draws_and_loses_nothing(
     monkeypatch.setattr(
         ModelMixture,
         "spread_restricted",
-        lambda self, thetas, n_jobs=None, tol=0.0: (self, np.arange(len(self.models))),
+        lambda self, thetas, n_jobs=None, tol=0.0: (
+            self,
+            np.arange(len(self.models)),
+            self.spread_component_log_likelihoods(thetas, n_jobs),
+        ),
     )
     full = _update(eleven_months, day)
     np.testing.assert_array_equal(fast.theta_nodes_, full.theta_nodes_)
     np.testing.assert_allclose(fast.theta_weights_, full.theta_weights_, rtol=1e-7)
     np.testing.assert_allclose(fast.theta_mean_, full.theta_mean_, rtol=1e-9)
+
+
+def test_module_4_reads_the_weights_the_reweighting_computed(
+    eleven_months, monkeypatch
+):
+    """Each node is evaluated once (the probes with every draw, the others
+    with the draws kept), and module 4's rule reads its draws' weights
+    there: the predictions are those of weights recomputed at the rule's
+    thetas."""
+    day = (MONTH == 12) & (DAY == 1)
+    evaluated, original = [], ModelMixture.spread_component_log_likelihoods
+
+    def counting(self, thetas, n_jobs=None):
+        evaluated.append(len(thetas))
+        return original(self, thetas, n_jobs)
+
+    monkeypatch.setattr(ModelMixture, "spread_component_log_likelihoods", counting)
+    read = _update(eleven_months, day)
+    assert sum(evaluated) == len(read.theta_nodes_)  # none for module 4
+    monkeypatch.undo()
+    own = pipeline.reweighted_posterior
+    monkeypatch.setattr(
+        pipeline,
+        "reweighted_posterior",
+        lambda *args, **kwargs: (own(*args, **kwargs)[0], None),
+    )
+    recomputed = _update(eleven_months, day)
+    X_new = X[day].iloc[::3]
+    for method in ("predict", "predict_reality", "predict_discrepancy"):
+        mean, sd = getattr(read, method)(X_new, return_std=True)
+        mean_again, sd_again = getattr(recomputed, method)(X_new, return_std=True)
+        np.testing.assert_allclose(mean, mean_again, rtol=1e-9)
+        np.testing.assert_allclose(sd, sd_again, rtol=1e-9)
 
 
 def test_the_next_day_reweights_the_same_draws_and_the_export_says_so(
