@@ -88,6 +88,13 @@ OPTIONAL_FITTED = (
 #: pass (at most; fewer when the calibrator's own are).
 FIRST_PASS_MCMC = {"n_chains": 2, "n_samples": 250, "burn_in": 500}
 
+#: An update searches module 2's mode from the last mode alone, without the
+#: settings' random restarts, until its field data hold this share more
+#: measured values than when the restarts last ran: a batch small beside
+#: the readings before it moves the mode, it does not make another one the
+#: best (docs/monitoring.rst, "Costs").
+RESTART_GROWTH = 0.1
+
 
 @dataclass(frozen=True)
 class ModuleInputs:
@@ -112,6 +119,23 @@ class ModuleInputs:
     progress: object
     replicates: object = None
     warm: object = None
+
+    @cached_property
+    def n_values(self):
+        """The measured values behind the field data (readings, not means)."""
+        if self.replicates is not None:
+            return int(self.replicates.counts.sum())
+        return int(np.isfinite(self.Ys).sum())
+
+    @cached_property
+    def restarts(self):
+        """Module 2's random restarts: the settings', or none in an update
+        whose data grew by less than :data:`RESTART_GROWTH` since they last
+        ran."""
+        warm = self.warm
+        if warm is not None and self.n_values < (1 + RESTART_GROWTH) * warm.searched:
+            return 0
+        return self.settings.discrepancy.n_restarts
 
     @cached_property
     def units(self):
@@ -159,13 +183,24 @@ class WarmStart:
     emulator: object
     module2: HyperposteriorDraws
     module3: Module3Result
+    searched: int
 
     @classmethod
     def of(cls, result):
-        """The warm start of a :class:`ModulesResult`."""
+        """The warm start of a :class:`ModulesResult`. ``searched``: the
+        measured values when module 2's restarts last ran."""
         i = result.inputs
+        searched = i.n_values
+        if i.warm is not None and i.restarts == 0:
+            searched = i.warm.searched
         return cls(
-            i.prior, i.sims, i.scaler, i.emulator, result.module2, result.module3
+            i.prior,
+            i.sims,
+            i.scaler,
+            i.emulator,
+            result.module2,
+            result.module3,
+            searched,
         )
 
 
@@ -291,7 +326,7 @@ def _plug_in(inputs, integrated, ranges, seed, started):
         inputs.Xs,
         inputs.Ys - integrated.mean,
         integrated.cov,
-        **inputs.settings.discrepancy.kwargs(),
+        **{**inputs.settings.discrepancy.kwargs(), "n_restarts": inputs.restarts},
         ranges=ranges,
         units=inputs.units,
         random_state=seed,
@@ -437,7 +472,7 @@ def _draws(inputs, integrated, prior, seed, label, predicts=True):
         kernel=settings.kernel,
         regression=settings.regression,
         noise=settings.noise,
-        n_restarts=settings.n_restarts,
+        n_restarts=inputs.restarts,
         random_state=seed,
         progress=inputs.progress,
         noise_mean=predicts,

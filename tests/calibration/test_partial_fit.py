@@ -3,11 +3,13 @@ modules 2-3 started where the last update ended, agree with one ``fit`` on
 all of them; ``theta_history_`` records each update; bad batches are
 refused with a message naming the fix."""
 
+import pickle
 import warnings
 
 import numpy as np
 import pytest
 
+import skmba.calibration._pipeline as pipeline
 from skmba import ModularBayesCalibrator
 from tests.calibration.bridge_year import (
     DATA,
@@ -94,6 +96,41 @@ def test_monthly_batches_agree_with_one_fit_to_a_tenth_of_a_posterior_sd():
         sd_error(full.theta_samples_[:, 1], full.ess_[1]),
     )
     assert abs(ratio[1] - 1.0) <= max(0.1, 3.0 * se), (ratio, se)
+
+
+def test_an_update_searches_module_2_from_the_last_mode_until_the_data_grow(
+    monkeypatch,
+):
+    """A day added to half a year starts module 2's search at the last mode
+    alone; the restarts would have changed nothing (the same posterior, bit
+    for bit: they end no better). They run again once the data hold a tenth
+    more values than when they last ran (a month)."""
+    restarts, search = [], pipeline.fit_hyperposterior
+
+    def spy(*args, **kwargs):
+        restarts.append(kwargs["n_restarts"])
+        return search(*args, **kwargs)
+
+    monkeypatch.setattr(pipeline, "fit_hyperposterior", spy)
+    month, day = FRAME.index.month, FRAME.index.day
+    half = quiet(_calibrator().partial_fit, X[month <= 6], Y[month <= 6], **SIMS)
+    assert restarts == [2, 2]  # the fit's two passes
+    searched = half._modules.searched
+    assert searched == int(np.isfinite(Y[month <= 6].to_numpy()).sum())
+    blob = pickle.dumps(half)
+    first = (month == 7) & (day == 1)
+    quiet(half.partial_fit, X[first], Y[first])
+    assert restarts[2:] == [0] and half._modules.searched == searched
+    monkeypatch.setattr(pipeline, "RESTART_GROWTH", -1.0)  # restarts always
+    again = quiet(pickle.loads(blob).partial_fit, X[first], Y[first])
+    assert restarts[3:] == [2]
+    np.testing.assert_array_equal(again.theta_samples_, half.theta_samples_)
+    monkeypatch.undo()
+    monkeypatch.setattr(pipeline, "fit_hyperposterior", spy)
+    rest = (month == 7) & (day > 1)
+    quiet(half.partial_fit, X[rest], Y[rest])
+    assert restarts[4:] == [2]  # July holds 17 % more than January-June
+    assert half._modules.searched == int(np.isfinite(Y[month <= 7].to_numpy()).sum())
 
 
 def test_first_call_is_fit_and_history_labels_each_update():
