@@ -7,8 +7,10 @@ mixture over the update's module-2 draws) once at each draw of the last
 MCMC run's :class:`~skmba.mcmc._reweight.Anchor`, in joblib tasks (over
 the module-2 draws that carry weight at 100 evenly thinned nodes, as the
 chains do), and returns the reweighted posterior
-(:mod:`skmba.mcmc._reweight`); None when the weights are too uneven, and
-module 3 then runs its chains, started from the last posterior.
+(:mod:`skmba.mcmc._reweight`) with ``p(phi_k | theta, data)`` at every
+node, which module 4's rule reads (each node is evaluated once); None when
+the weights are too uneven, and module 3 then runs its chains, started
+from the last posterior.
 ``tests/calibration/test_module3_update.py`` checks it against the chains.
 """
 
@@ -25,7 +27,8 @@ from skmba.mcmc._reweight import REWEIGHT_SHARE, Anchor, reweighted
 def reweighted_posterior(
     log_post, earlier, *, n_jobs=None, random_state=None, say=None
 ):
-    """The last run's draws reweighted to ``log_post``, or None.
+    """The last run's draws reweighted to ``log_post``, and the module-2
+    draws' weights at them; ``(None, None)`` when they do not do.
 
     Parameters
     ----------

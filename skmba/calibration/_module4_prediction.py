@@ -114,18 +114,18 @@ def prediction_rule(
     """
     mixture = log_posterior.model
     rng = np.random.default_rng(seed_sequence(random_state))
-    picked = None
+    at_nodes = None  # the rule's thetas as rows of a reweighted posterior's nodes
     if posterior.method == "quadrature":
         rule = PredictionRule.quadrature(log_posterior, posterior.interval)
     elif posterior.method == "reweighted":
-        picked = systematic_indices(posterior.weights, _N_PREDICT_DRAWS, rng)
-        rule = PredictionRule.equal_weights(posterior.nodes[picked])
+        at_nodes = systematic_indices(posterior.weights, _N_PREDICT_DRAWS, rng)
+        rule = PredictionRule.equal_weights(posterior.nodes[at_nodes])
     else:
         rule = PredictionRule.equal_weights(posterior.samples)
     if not with_draws:
         return rule
-    if picked is not None and node_draw_weights is not None:
-        given = node_draw_weights[picked]
+    if at_nodes is not None and node_draw_weights is not None:
+        given = node_draw_weights[at_nodes]
     else:
         given = _draw_weights(mixture, log_posterior.scaler.theta(rule.thetas), n_jobs)
     if posterior.method == "quadrature":
