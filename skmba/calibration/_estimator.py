@@ -143,6 +143,9 @@ class ModularBayesCalibrator(
         emulator mean over the prior (total variance; why: User Guide).
     n_restarts_optimizer : int, default=2
         Random restarts of the module-1 and module-2 likelihood maximisation.
+        An update (:meth:`partial_fit`) starts module 2 at the last mode
+        and runs them again once the field data hold a tenth more values
+        than when they last ran.
     discrepancy_optimizer : {"fmin_l_bfgs_b", "differential_evolution"}
         Module-2 optimiser; differential evolution is a global search (the
         analogue of the thesis' genetic algorithm) followed by L-BFGS-B.
@@ -460,11 +463,14 @@ class ModularBayesCalibrator(
         readings; the result is :meth:`fit`'s on all the batches up to
         module 3's Monte Carlo error. ``theta_history_`` records each call.
 
-        With MCMC, module 3 first reweights the last run's draws (thinned to
-        about one per effective draw) to the new posterior, one likelihood
-        per draw; it runs chains instead when that run's diagnostics were
-        warned about, the weights' Kish share is below one half, or the ESS
-        would fall below 400 (User Guide, "Monitoring over time").
+        Module 2's search starts at the last mode, without random restarts
+        until the field data hold a tenth more measured values than when
+        they last ran. With MCMC, module 3 first reweights the last run's
+        draws (thinned to about one per effective draw) to the new
+        posterior, one likelihood per draw; it runs chains instead when that
+        run's diagnostics were warned about, the weights' Kish share is below
+        one half, or the ESS would fall below 400 (User Guide, "Monitoring
+        over time").
 
         Parameters
         ----------
