@@ -16,6 +16,8 @@ file                               holds
                                    2's prior, the simulations
 ``_pipeline.py``                   modules 1-3 run in order (and again,
                                    warm, by ``partial_fit``)
+``_fitted.py``                     the fitted attributes of a run of
+                                   modules 1-3
 ``_field_data.py``                 checks of the field data, alone and
                                    against the simulations
 ``_field_replicates.py``           readings at one input as their mean and

@@ -17,8 +17,9 @@ The calibrator's ``fit`` checks the data and the simulations, then calls
    posterior of theta (:mod:`skmba.calibration._module3_posterior`) and
    module 4's rule over it.
 
-It returns a :class:`ModulesResult`; :func:`fitted_attributes` turns it into
-the calibrator's public fitted attributes.
+It returns a :class:`ModulesResult`;
+:func:`~skmba.calibration._fitted.fitted_attributes` turns it into the
+calibrator's public fitted attributes.
 
 Examples
 --------
@@ -71,17 +72,6 @@ from skmba.calibration._module3_update import reweighted_posterior
 from skmba.calibration._module4_prediction import PredictionRule, prediction_rule
 from skmba.priors._hyperprior import Hyperprior
 from skmba.priors._table_6_2 import ranges_text
-
-#: Fitted attributes that only one posterior method sets.
-OPTIONAL_FITTED = (
-    "acceptance_rate_",
-    "rhat_",
-    "ess_",
-    "theta_chains_",
-    "theta_log_posterior_",
-    "theta_nodes_",
-    "theta_weights_",
-)
 
 #: The first of the two passes of the propagated module 2 needs only where
 #: the posterior is: the chains, MCMC draws (per chain) and burn-in of that
@@ -569,60 +559,3 @@ def _posterior(inputs, log_post, seed, first_pass, earlier):
             else None
         ),
     )
-
-
-def _mcse(error, r):
-    """``theta_mcse_``: rows mean, sd, 2.5 % and 97.5 % ends (r columns);
-    NaN where the integral over the hyperparameters has no estimate."""
-    if error is None:
-        return np.full((4, r), np.nan)
-    rows = (error.mean, error.sd, error.lower, error.upper)
-    return np.array([np.broadcast_to(row, (r,)) for row in rows], dtype=float)
-
-
-def fitted_attributes(result):
-    """The calibrator's public fitted attributes of the modules (user units).
-
-    Returns a dict ``{attribute name: value}``; the optional attributes
-    (:data:`OPTIONAL_FITTED`) are present only for their posterior method.
-    """
-    scaler = result.inputs.scaler
-    disc = result.module2.mode
-    posterior = result.module3.posterior
-    out = {
-        "X_mean_": scaler.X_mean,
-        "X_scale_": scaler.X_scale,
-        "theta_offset_": scaler.theta_offset,
-        "theta_scale_": scaler.theta_scale,
-        "y_mean_": scaler.y_mean,
-        "y_scale_": scaler.y_scale,
-        "model_gp_": result.inputs.emulator.gp,
-        "discrepancy_kernel_": disc.kernel_,
-        "discrepancy_sigma2_": scaler.y_covariance_to_user(disc.sigma2),
-        "discrepancy_beta_": disc.beta * scaler.y_scale,
-        "noise_": disc.noise * scaler.y_scale**2,
-        "theta_samples_": posterior.samples,
-        "theta_mean_": posterior.mean,
-        "theta_cov_": posterior.cov,
-        "identifiability_": result.identifiability.ratio,
-        "global_model_": result.module3.log_post.model,
-        "theta_mcse_": _mcse(result.module3.error, len(posterior.mean)),
-        "discrepancy_draws_": len(result.module2.components),
-        "discrepancy_prior_units_": result.inputs.units,
-        "estimand_": "physical" if result.best_fit is None else "best_fit",
-    }
-    if result.best_fit is not None:  # theta's draws are the best fit's
-        best = result.best_fit
-        out["theta_samples_"] = best.posterior.samples
-        out["theta_mean_"], out["theta_cov_"] = best.posterior.mean, best.posterior.cov
-        out["theta_mcse_"] = best.mcse
-    if posterior.method != "mcmc":
-        out["theta_nodes_"], out["theta_weights_"] = posterior.nodes, posterior.weights
-    if posterior.method == "reweighted":
-        out["ess_"] = posterior.ess
-    elif posterior.method == "mcmc":
-        out["theta_chains_"] = posterior.chains
-        out["theta_log_posterior_"] = posterior.log_density
-        out["acceptance_rate_"] = posterior.acceptance_rate
-        out["rhat_"], out["ess_"] = posterior.rhat, posterior.ess
-    return out
