@@ -191,8 +191,7 @@ class ModelMixture:
 
     def draw_weights(self, theta):
         """``p(phi_k | theta, data)`` over the draws (sums to one)."""
-        values = self.component_log_likelihoods(theta)
-        return np.exp(values - special.logsumexp(values))
+        return draw_weights_of(self.component_log_likelihoods(theta)[None])[0]
 
     def restricted(self, thetas, tol=IDLE_WEIGHT):
         """The mixture of the draws that carry weight at some of ``thetas``.
