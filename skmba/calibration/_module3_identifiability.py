@@ -282,7 +282,8 @@ def sensitivities(emulator, X_e, thetas):
     plus = means[: m * r].reshape(m, r, n, q)
     minus = means[m * r : 2 * m * r].reshape(m, r, n, q)
     J = ((plus - minus) / (2 * _STEP)).transpose(0, 2, 3, 1)
-    return J, cond.correlation()[2 * m * r :]
+    T = cond.correlation(prior=emulator.field_correlation(X_e))
+    return J, T[2 * m * r :]
 
 
 def warn_if_confounded(values, names):

@@ -55,6 +55,9 @@ class FieldDesignEmulator:
         self.n = len(X_e)
         self.p_m = emulator.H_white.shape[1]
         self.log_det_R_m = log_det_from_cholesky(emulator.C)
+        # R_m among the field points, when theta-free (a stationary kernel):
+        # computed once instead of once per theta.
+        self.R_ee = emulator.field_correlation(X_e)
         self._blocks = {}
 
     def pieces(self, thetas):
@@ -67,7 +70,7 @@ class FieldDesignEmulator:
         M : ndarray of shape (k, n, q)
         """
         cond = self.emulator.conditional(self.X_e, thetas)
-        return cond.correlation(), cond.H_me(), cond.M()
+        return cond.correlation(prior=self.R_ee), cond.H_me(), cond.M()
 
     def simulation_block(self, responses):
         """The whitened simulation block of a response subset (cached).
