@@ -33,6 +33,8 @@ Examples
 (1.0, 0.05)
 """
 
+from functools import cache
+
 import numpy as np
 from scipy import stats
 
@@ -59,6 +61,16 @@ def _moments(nodes, w):
     return mean, 0.5 * (cov + cov.T)
 
 
+@cache
+def _hermite_rule(n):
+    """Gauss-Hermite nodes and normalised weights of ``N(0, 1)`` (read-only:
+    every stage 2 of one parameter asks for the same ``n``)."""
+    x, w = np.polynomial.hermite_e.hermegauss(n)
+    w = w / w.sum()
+    x.flags.writeable = w.flags.writeable = False
+    return x, w
+
+
 def gaussian_rule(mean, cov, n, random_state=None):
     """Nodes of ``N(mean, cov)``, their log-density and weights summing to one.
 
@@ -75,10 +87,9 @@ def gaussian_rule(mean, cov, n, random_state=None):
     r = len(mean)
     cov = proposal_covariance(cov)
     if r == 1:
-        x, w = np.polynomial.hermite_e.hermegauss(n)
+        x, weights = _hermite_rule(n)
         sd = np.sqrt(cov[0, 0])
         nodes = mean[0] + sd * x[:, None]
-        weights = w / w.sum()
     else:
         m = 1 << int(np.ceil(np.log2(n)))
         rng = np.random.default_rng(random_state)  # a seed, its list or None
