@@ -127,13 +127,18 @@ def check_bin_width(bin_width, d):
     return np.broadcast_to(width, (d,)).copy()
 
 
+def noise_diagonal(noise, n, replicates=None):
+    """The diagonal (n q,) of :func:`noise_covariance`."""
+    if replicates is None:
+        return np.repeat(np.asarray(noise, dtype=float), n)
+    return replicates.noise_diagonal(noise)
+
+
 def noise_covariance(noise, n, replicates=None):
     """The field data's noise covariance (n q, n q), ``vec`` response-slowest:
     ``noise`` (q,) per reading, divided by the counts of ``replicates`` (a
     :class:`ReplicateTerms`, or None: one reading per row)."""
-    if replicates is None:
-        return np.kron(np.diag(noise), np.eye(n))
-    return np.diag(replicates.noise_diagonal(noise))
+    return np.diag(noise_diagonal(noise, n, replicates))
 
 
 @dataclass(frozen=True)

@@ -54,7 +54,7 @@ from skmba._core.progress import as_progress, start_reporter
 from skmba._core.regression import regression_basis
 from skmba._core.validation import seed_sequence
 from skmba._core.warn import warn
-from skmba.calibration._field_replicates import noise_covariance
+from skmba.calibration._field_replicates import noise_diagonal
 from skmba.calibration._module2_kernel import bounded_kernel
 
 DISCREPANCY_OPTIMIZERS = ("fmin_l_bfgs_b", "differential_evolution")
@@ -170,6 +170,9 @@ class DiscrepancyFit:
         self.restricted = restricted
         self.n, self.q = Y.shape
         self.observed = observed_entries(Y)
+        # The measured rows of the regression and the data (fixed).
+        self._X_obs = observed_rows(np.kron(np.eye(self.q), H), self.observed)
+        self._y_obs = observed_rows(Y.T.ravel(), self.observed)
         self.scale = np.maximum(
             np.nanstd(Y, axis=0), 1e-8 * max(np.nanmax(np.abs(Y)), 1e-300)
         )
@@ -250,20 +253,23 @@ class DiscrepancyFit:
             R, dR = k(self.X), None
         sigma2 = L @ L.T + np.diag(self.floor)
         reps = self.replicates
-        V = self.V_fixed + np.kron(sigma2, R) + noise_covariance(lam, n, reps)
+        # V_fixed + Sigma_d ⊗ R + the noise, built in place (one n q x n q array).
+        V = np.kron(sigma2, R)
+        V += self.V_fixed
+        V.flat[:: n * q + 1] += noise_diagonal(lam, n, reps)
         obs = self.observed
         C = cholesky(
             observed_block(V, obs),
             what="field-data covariance of module 2",
             remedy="Use another discrepancy kernel or a larger noise lower bound.",
         )
-        Xr = observed_rows(np.kron(np.eye(q), self.H), obs)
-        y = observed_rows(self.Y.T.ravel(), obs)
+        y = self._y_obs
         m = len(y)
-        Xw = linalg.solve_triangular(C, Xr, lower=True)
-        yw = linalg.solve_triangular(C, y, lower=True)
-        Q, G = linalg.qr(Xw, mode="economic")
-        beta = linalg.solve_triangular(G, Q.T @ yw)
+        # C is a Cholesky factor (finite): no finiteness checks in the solves.
+        Xw = linalg.solve_triangular(C, self._X_obs, lower=True, check_finite=False)
+        yw = linalg.solve_triangular(C, y, lower=True, check_finite=False)
+        Q, G = linalg.qr(Xw, mode="economic", check_finite=False)
+        beta = linalg.solve_triangular(G, Q.T @ yw, check_finite=False)
         rw = yw - Xw @ beta
         ll = -0.5 * (m * LOG_2PI + log_det_from_cholesky(C) + rw @ rw)
         if self.restricted:
@@ -274,10 +280,12 @@ class DiscrepancyFit:
         self.last = (k, sigma2, lam, beta.reshape(q, -1).T)
         if not eval_gradient:
             return ll
-        alpha = linalg.solve_triangular(C, rw, lower=True, trans="T")
-        Vinv = linalg.cho_solve((C, True), np.eye(m))
+        alpha = linalg.solve_triangular(
+            C, rw, lower=True, trans="T", check_finite=False
+        )
+        Vinv = linalg.cho_solve((C, True), np.eye(m), check_finite=False)
         if self.restricted:  # V^-1 -> V^-1 - V^-1 X (X' V^-1 X)^-1 X' V^-1
-            W = linalg.solve_triangular(C, Q, lower=True, trans="T")
+            W = linalg.solve_triangular(C, Q, lower=True, trans="T", check_finite=False)
             Vinv -= W @ W.T
         # d ll = tr(K dV) / 2 over the observed block; the unobserved rows
         # and columns of K are zero.
