@@ -201,11 +201,17 @@ def _extend(node, a, futures, covariance, H_rows, Y, M, n, p):
     b, rows = len(node.alive), n * len(node.path)
     blocks = {r: j for j, r in enumerate(node.future)}
     m_u = n * len(node.future)  # the tail: the regression and the data
-    columns = np.concatenate(
-        [np.arange(n * blocks[r], n * (blocks[r] + 1)) for r in (a, *future)]
-        + [np.arange(m_u, node.G.shape[2])]
-    )
-    taken = node.G[:, :, columns]  # [U_a, U_rest, W_reg, w_y] on the path rows
+    first = blocks[a]
+    if [blocks[r] for r in future] == list(range(first + 1, len(node.future))):
+        # a and its future are the last blocks (an exhaustive search): a view.
+        taken = node.G[:, :, n * first :]
+    else:
+        columns = np.concatenate(
+            [np.arange(n * blocks[r], n * (blocks[r] + 1)) for r in (a, *future)]
+            + [np.arange(m_u, node.G.shape[2])]
+        )
+        taken = node.G[:, :, columns]
+    # taken: [U_a, U_rest, W_reg, w_y] on the path rows.
     m_rest = n * len(future)
     # The covariance of response a and of the responses that follow it,
     # given the path (a Schur complement), and the field rows of a less
@@ -224,13 +230,16 @@ def _extend(node, a, futures, covariance, H_rows, Y, M, n, p):
         ],
         axis=2,
     )
-    solved = np.linalg.solve(F_a, rhs)  # F_a^-1 [...]: the new rows
-    old = np.concatenate(  # the path rows, zero in the new regression columns
-        [taken[:, :, n:-1], np.zeros((b, rows, p)), taken[:, :, -1:]], axis=2
-    )
+    G = np.empty((b, rows + n, rhs.shape[2]))
+    # The path rows, zero in the new regression columns; then the new rows.
+    width = taken.shape[2] - n - 1
+    G[:, :rows, :width] = taken[:, :, n:-1]
+    G[:, :rows, width:-1] = 0.0
+    G[:, :rows, -1] = taken[:, :, -1]
+    G[:, rows:] = np.linalg.solve(F_a, rhs)  # F_a^-1 [...]
     return _Node(
         path,
-        np.concatenate([old, solved], axis=1),
+        G,
         future,
         node.log_det + 2.0 * np.sum(np.log(np.diagonal(F_a, axis1=1, axis2=2)), axis=1),
         alive,
