@@ -33,13 +33,13 @@ array([[0.3125]])
 
 import numpy as np
 from scipy import linalg
-from scipy.linalg import lapack
 
 from skmba._core.linalg import (
     LOG_2PI,
     FactorizationError,
     KroneckerEigen,
     cholesky,
+    cholesky_inverse,
     log_det_from_cholesky,
     symmetric_eigh,
     whitened_gls,
@@ -108,24 +108,6 @@ def _weighted_trace_gradient(dR, weight):
         return dR(weight)
     n = weight.shape[0]
     return dR.reshape(n * n, -1).T @ weight.ravel()
-
-
-def _cholesky_inverse(C):
-    """``(C C')^-1`` from its lower Cholesky factor (LAPACK potri).
-
-    Used only where the full inverse itself is needed: the trace term of
-    likelihood gradients, ``tr(R^-1 dR/dtheta)``.
-    """
-    inv, info = lapack.dpotri(C, lower=1)
-    if info != 0:
-        raise FactorizationError(
-            f"LAPACK dpotri failed (info={info}). {R_REMEDY}", what=R_WHAT
-        )
-    # Symmetrised in place: at most two N x N arrays at once (N=10000: 0.8 GB
-    # each).
-    inv = np.tril(inv)
-    inv += np.tril(inv, -1).T
-    return inv
 
 
 class NoiseFreeLikelihood:
@@ -205,7 +187,7 @@ class NoiseFreeLikelihood:
             A = linalg.solve_triangular(self.C, resid, lower=True, trans="T")
             B = linalg.solve_triangular(self.sigma2_chol, A.T, lower=True)
             # B'B - q R^-1, built in place (fewer N x N temporaries).
-            weight = _cholesky_inverse(self.C)
+            weight = cholesky_inverse(self.C, what=R_WHAT, remedy=R_REMEDY)
             weight *= -q
             weight += B.T @ B
             if ridge:

@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from skmba.calibration import _module2_plug_in
 from skmba.calibration._module2_plug_in import DiscrepancyFit
 from skmba.kernels import Gauss
 
@@ -33,6 +34,32 @@ def test_gradient_matches_finite_differences(problem):
     fit = DiscrepancyFit(Gauss([1.0, 2.0]), X, Y, np.ones((15, 1)), V_fixed)
     x = fit.start() + 0.1 * np.random.default_rng(1).normal(size=fit.start().size)
     assert_gradient_is_the_likelihood_slope(fit, x)
+
+
+@pytest.mark.parametrize("restricted", [False, True])
+def test_the_gradient_of_many_field_values_takes_the_inverse_from_potri(
+    monkeypatch, restricted
+):
+    """From INVERSE_BY_POTRI field values on, V^-1 comes from potri: the
+    same gradient as the two triangular solves, and the slope of the
+    likelihood."""
+    rng = np.random.default_rng(3)
+    n, q = 30, 9  # 270 field values
+    assert n * q >= _module2_plug_in.INVERSE_BY_POTRI
+    X = np.sort(rng.uniform(size=(n, 1)), axis=0)
+    Y = np.sin(3 * X) * rng.normal(size=q) + 0.1 * rng.normal(size=(n, q))
+    A = rng.normal(size=(n * q, 40))
+    fit = DiscrepancyFit(
+        Gauss([1.0]), X, Y, np.ones((n, 1)), 0.01 * A @ A.T / 40, restricted=restricted
+    )
+    x = fit.start() + 0.1 * rng.normal(size=fit.start().size)
+    ll, grad = fit.evaluate(x)
+    monkeypatch.setattr(_module2_plug_in, "INVERSE_BY_POTRI", n * q + 1)
+    ll_solves, grad_solves = fit.evaluate(x)
+    assert ll == ll_solves
+    np.testing.assert_allclose(grad, grad_solves, rtol=1e-10, atol=1e-10)
+    monkeypatch.undo()
+    assert_gradient_is_the_likelihood_slope(fit, x, h=1e-5)
 
 
 def test_optimum_is_stationary_and_noise_can_be_fixed(problem):

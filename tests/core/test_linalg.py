@@ -11,6 +11,7 @@ from skmba._core.linalg import (
     FactorizationError,
     check_memory,
     cholesky,
+    cholesky_inverse,
     smallest_pivot,
     stacked_whitening,
 )
@@ -166,3 +167,23 @@ def test_proposal_covariance_keeps_a_positive_definite_one_and_floors_others():
         assert values.min() == pytest.approx(smallest, rel=1e-6)
         assert values.max() == pytest.approx(largest, rel=1e-6)
         stats.multivariate_normal(np.zeros(len(C)), C)  # scipy accepts it
+
+
+# ------------------------------------------------------------ cholesky_inverse
+def test_cholesky_inverse_is_the_inverse_and_names_a_singular_factor():
+    rng = np.random.default_rng(0)
+    A = rng.normal(size=(300, 300))
+    S = A @ A.T + 300 * np.eye(300)
+    C = cholesky(S)
+    inverse = cholesky_inverse(C)
+    np.testing.assert_array_equal(inverse, inverse.T)
+    np.testing.assert_allclose(
+        inverse, linalg.cho_solve((C, True), np.eye(300)), rtol=1e-10, atol=1e-14
+    )
+    with pytest.raises(
+        FactorizationError, match=r"on the noise block.*Add noise"
+    ) as info:
+        cholesky_inverse(
+            np.array([[1.0, 0.0], [1.0, 0.0]]), what="noise block", remedy="Add noise."
+        )
+    assert info.value.what == "noise block"
