@@ -40,6 +40,8 @@ from joblib import effective_n_jobs
 from scipy import linalg
 from scipy.linalg import lapack
 
+from skmba._core.workspace import scratch
+
 #: ``log(2 pi)``, the constant of every Gaussian log-density in the package.
 LOG_2PI = float(np.log(2.0 * np.pi))
 _GIB = float(2**30)
@@ -141,10 +143,9 @@ def stacked_whitening(S, Z, eigenvalue_floor):
     One batched Cholesky factorisation of the bordered matrices
     ``[[S_k, Z_k], [Z_k', c_k I]]`` gives both ``L_k`` (its leading block)
     and ``(L_k^-1 Z_k)'`` (its lower-left block), which would otherwise take
-    one triangular solve per matrix (numpy has no batched one) or a general
-    solve. ``c_k`` exceeds ``||Z_k||_F^2 / lambda_min(S_k)``, so the
-    bordered matrices are positive definite whenever the ``S_k`` are; it
-    does not enter the blocks returned.
+    a triangular solve per matrix (numpy has no batched one). ``c_k`` exceeds
+    ``||Z_k||_F^2 / lambda_min(S_k)``: the bordered matrices are positive
+    definite when the ``S_k`` are. They are built in a ``scratch`` buffer.
 
     Parameters
     ----------
@@ -165,8 +166,8 @@ def stacked_whitening(S, Z, eigenvalue_floor):
     Raises
     ------
     numpy.linalg.LinAlgError
-        When a bordered matrix is not positive definite (an ``S_k`` is not),
-        or ``eigenvalue_floor`` gives no bound (zero or not finite).
+        When an ``S_k`` is not positive definite or ``eigenvalue_floor``
+        gives no bound (zero or not finite).
 
     Examples
     --------
@@ -183,7 +184,7 @@ def stacked_whitening(S, Z, eigenvalue_floor):
         border = 2.0 * np.sum(Z**2, axis=(1, 2)) / eigenvalue_floor + 1.0
     if not (eigenvalue_floor > 0 and np.all(np.isfinite(border))):
         raise np.linalg.LinAlgError("no bound on the bordered matrix")
-    bordered = np.zeros((k, m + c, m + c))
+    bordered = scratch((k, m + c, m + c))
     bordered[:, :m, :m] = S
     bordered[:, :m, m:] = Z
     bordered[:, m:, :m] = np.swapaxes(Z, 1, 2)
