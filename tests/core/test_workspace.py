@@ -37,4 +37,3 @@ def test_each_thread_has_its_own_buffer_and_large_requests_their_own_array():
     large = scratch((workspace.SCRATCH_BYTES // 8 + 1,))
     assert large.base is not mine
     assert scratch((4, 4)).base is mine
-
