@@ -27,6 +27,8 @@ from sklearn.gaussian_process.kernels import (
     StationaryKernelMixin,
 )
 
+from skmba._core.workspace import scratch
+
 
 def leave_one_out_products(R):
     """Products over the last axis leaving out each entry in turn.
@@ -179,7 +181,11 @@ class DACECorrelation(StationaryKernelMixin, NormalizedKernelMixin, Kernel):
         array less at the peak of a large likelihood) and None is returned
         in its place.
         """
-        absdiff = X[:, j, np.newaxis] - Y[np.newaxis, :, j]
+        # Not kept: the thread's scratch buffer, which the caller's next
+        # dimension reuses (a fresh n x m array per dimension made glibc
+        # fault its pages in again, docs/internals.rst, skmba._core.workspace).
+        out = None if keep_absdiff else scratch((len(X), len(Y)))
+        absdiff = np.subtract(X[:, j, np.newaxis], Y[np.newaxis, :, j], out=out)
         np.abs(absdiff, out=absdiff)
         scale = roughness[j] if roughness.ndim else roughness
         if keep_absdiff:

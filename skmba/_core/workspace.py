@@ -3,7 +3,8 @@
 * :func:`scratch`: an uninitialised array in the calling thread's buffer,
   for a large temporary that a hot loop builds on every call and discards
   before returning (the bordered stacks of
-  :func:`~skmba._core.linalg.stacked_whitening`).
+  :func:`~skmba._core.linalg.stacked_whitening`, the per-dimension
+  differences of the DACE correlations in :mod:`skmba._core.dace`).
 
 Allocating such a temporary afresh each time lets glibc's allocator give the
 memory back to the system and fault it in again at the next call, which

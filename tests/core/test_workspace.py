@@ -8,6 +8,7 @@ from scipy import linalg
 from skmba._core import workspace
 from skmba._core.linalg import stacked_whitening
 from skmba._core.workspace import scratch
+from skmba.kernels import Gauss
 
 
 def _stack(rng, k=6, m=150, c=5):
@@ -37,3 +38,14 @@ def test_each_thread_has_its_own_buffer_and_large_requests_their_own_array():
     large = scratch((workspace.SCRATCH_BYTES // 8 + 1,))
     assert large.base is not mine
     assert scratch((4, 4)).base is mine
+
+
+def test_a_correlation_built_in_the_buffer_does_not_read_what_it_held():
+    rng = np.random.default_rng(2)
+    X, Y = rng.uniform(size=(40, 3)), rng.uniform(size=(30, 3))
+    scratch((40 * 30 * 2,))[:] = np.nan
+    roughness = np.array([0.5, 2.0, 8.0])
+    expected = np.exp(-(((X[:, None, :] - Y[None, :, :]) ** 2) @ roughness))
+    K = Gauss(roughness=roughness)(X, Y)
+    np.testing.assert_allclose(K, expected, rtol=1e-13)
+    assert K.base is not scratch((1,)).base  # what it returns is its own
