@@ -177,9 +177,11 @@ class DACECorrelation(StationaryKernelMixin, NormalizedKernelMixin, Kernel):
     def _dimension(self, X, Y, j, roughness, keep_absdiff=True):
         """``|Δ_j|`` and ``ζ_j`` of input dimension ``j``, shape (n, m).
 
-        Without ``keep_absdiff``, ``ζ_j`` overwrites ``|Δ_j|`` (one n x m
-        array less at the peak of a large likelihood) and None is returned
-        in its place.
+        Without ``keep_absdiff``, ``|Δ_j|`` is built in the thread's
+        :func:`~skmba._core.workspace.scratch` buffer, ``ζ_j`` overwrites it
+        where the profile allows (one n x m array less at the peak of a large
+        likelihood), and None is returned in its place: the caller uses
+        ``ζ_j`` up before the next dimension.
         """
         # Not kept: the thread's scratch buffer, which the caller's next
         # dimension reuses (a fresh n x m array per dimension made glibc

@@ -36,8 +36,9 @@ def scratch(shape):
     """An uninitialised float64 array of ``shape`` in the thread's buffer.
 
     It holds whatever the last use left: write every entry that is read.
-    It is valid until the thread's next call of :func:`scratch`, so a
-    caller must not return it or keep a view of it.
+    It is valid until the thread's next call of :func:`scratch`, so it must
+    not leave the computation that asked for it (a helper may hand it to
+    its caller, which uses it up before asking again).
     """
     size = math.prod(shape)
     if 8 * size > SCRATCH_BYTES:
