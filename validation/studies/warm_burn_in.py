@@ -67,7 +67,7 @@ def _data(case, seed):
     return c.prior, c.X, c.y, c.X_sim, c.theta_sim, c.y_sim
 
 
-def _fit(case, seed, version, reference_draws):
+def one_fit(case, seed, version, reference_draws):
     """One fit of ``case`` on seed ``seed``: ``version`` a burn-in, or
     "reference" (4 chains of ``reference_draws`` after 2000, fixed length)."""
     prior, X, y, X_sim, theta_sim, y_sim = _data(case, seed)
@@ -234,7 +234,7 @@ def main(argv=None):
     # The reference fits are the longest: first, so that the workers end together.
     jobs.sort(key=lambda job: job[2] != "reference")
     out = Parallel(n_jobs=args.n_jobs)(
-        delayed(_fit)(*job, args.reference_draws) for job in jobs
+        delayed(one_fit)(*job, args.reference_draws) for job in jobs
     )
     fits = dict(zip(jobs, out, strict=True))
     print(
