@@ -66,10 +66,15 @@ def _fit(seed, target_ess, n_samples):
         elapsed = time.perf_counter() - started
     # Module 2's estimate: each response's noise and discrepancy variance.
     module2 = np.concatenate([cal.noise_, np.diag(cal.discrepancy_sigma2_)])
-    return _estimates(cal.theta_chains_), cal.theta_chains_.shape[1], elapsed, module2
+    return (
+        chain_estimates(cal.theta_chains_),
+        cal.theta_chains_.shape[1],
+        elapsed,
+        module2,
+    )
 
 
-def _estimates(chains):
+def chain_estimates(chains):
     """(values, mcses): arrays of shape (4, r), rows :data:`QUANTITIES`."""
     import arviz
 

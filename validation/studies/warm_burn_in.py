@@ -46,9 +46,9 @@ import skmba.calibration._module3_posterior as posterior_module
 from skmba import ModularBayesCalibrator
 from skmba.datasets import make_cantilever
 from skmba.mcmc._run import run_chains
+from validation.studies.ess_target import QUANTITIES, chain_estimates
 from validation.suite import registry
 
-QUANTITIES = ("mean", "sd", "2.5%", "97.5%")
 LONG = 1000  # the calibrator's default burn-in
 
 
@@ -101,7 +101,7 @@ def one_fit(case, seed, version, reference_draws):
     # The second pass's runs: two when a module-2 draw left out weighed
     # something at the posterior draws (the chains ran again over every one).
     return {
-        "estimates": _estimates(chains),
+        "estimates": chain_estimates(chains),
         "rhat": float(np.max(cal.rhat_)),
         "draws": chains.shape[1],
         "steps": sum(runs),
@@ -109,25 +109,6 @@ def one_fit(case, seed, version, reference_draws):
         "seconds": seconds,
         "module2": np.asarray(cal.discrepancy_sigma2_, float),
     }
-
-
-def _estimates(chains):
-    """(values, mcses): arrays of shape (4, r), rows :data:`QUANTITIES`."""
-    import arviz
-
-    values, errors = [], []
-    for j in range(chains.shape[-1]):
-        x = chains[:, :, j]
-        values.append([x.mean(), x.std(ddof=1), *np.quantile(x, [0.025, 0.975])])
-        errors.append(
-            [
-                float(arviz.mcse(x, method="mean")),
-                float(arviz.mcse(x, method="sd")),
-                float(arviz.mcse(x, method="quantile", prob=0.025)),
-                float(arviz.mcse(x, method="quantile", prob=0.975)),
-            ]
-        )
-    return np.array(values).T, np.array(errors).T
 
 
 def _z(fits, against):
