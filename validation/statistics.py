@@ -10,7 +10,8 @@ Holds, with no fitting and no output:
   :func:`fresh_observations` (one seeded fresh draw per input, the
   "one draw" estimate);
 - over replicates: :func:`wilson_interval`, :func:`mean_interval` (the
-  t-interval of a mean coverage over seeds), :func:`rms`, the rank
+  t-interval of a mean coverage over seeds), :func:`rms` and its range
+  :func:`rms_band`, the rank
   histogram and its chi-square and KS tests (:func:`rank_histogram`,
   :func:`rank_tests`, :func:`n_rank_bins`), the simultaneous 95 % band of
   the rank ECDF (:func:`rank_ecdf_band`), :func:`message_kind` and
@@ -158,6 +159,13 @@ def rms(z):
     """Root mean square along axis 0 (nan for no values)."""
     z = np.asarray(z, dtype=float)
     return np.sqrt(np.mean(z**2, axis=0)) if len(z) else np.nan
+
+
+def rms_band(n, level=LEVEL):
+    """The central ``level`` range of the rms of ``n`` independent standard
+    normal z: ``n rms^2`` is chi-squared with ``n`` degrees of freedom. An
+    rms z outside it says the errors behind the z are not honest."""
+    return np.sqrt(stats.chi2.ppf([(1 - level) / 2, (1 + level) / 2], n) / n)
 
 
 def n_rank_bins(n):

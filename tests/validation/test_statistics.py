@@ -24,6 +24,7 @@ from validation.statistics import (
     rank_histogram,
     rank_tests,
     rms,
+    rms_band,
     thinned,
     wilson_interval,
 )
@@ -90,6 +91,22 @@ def test_rms_and_bins():
     assert rms([3.0, -4.0]) == pytest.approx(math.sqrt(12.5))
     np.testing.assert_allclose(rms([[1.0, 2.0], [-1.0, 0.0]]), [1, 2**0.5])
     assert [n_rank_bins(n) for n in (3, 20, 49, 200)] == [2, 4, 9, 10]
+
+
+def test_rms_band_is_the_chi_square_range_and_holds_its_level():
+    # The ranges quoted in docs/internals.rst for 80 and 24 values.
+    np.testing.assert_allclose(rms_band(80), [0.85, 1.15], atol=0.005)
+    np.testing.assert_allclose(rms_band(24), [0.72, 1.28], atol=0.005)
+    # One value: |z| within [Phi^-1(0.4875), Phi^-1(0.9875)].
+    np.testing.assert_allclose(
+        rms_band(1), np.abs(stats.norm.ppf([0.4875, 0.9875])), rtol=1e-9
+    )
+    # Honest z fall inside it at its level (20,000 sets of 24; Monte Carlo
+    # error of the share 0.0015).
+    z = np.random.default_rng(0).standard_normal((20_000, 24))
+    lo, hi = rms_band(24)
+    inside = np.mean((rms(z.T) >= lo) & (rms(z.T) <= hi))
+    assert abs(inside - 0.95) < 4 * math.sqrt(0.95 * 0.05 / 20_000)
 
 
 def test_rank_histogram_shares_and_counts():

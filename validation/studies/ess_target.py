@@ -33,10 +33,10 @@ import warnings
 import numpy as np
 import threadpoolctl
 from joblib import Parallel, delayed
-from scipy import stats
 
 from skmba import ModularBayesCalibrator
 from skmba.datasets import make_cantilever
+from validation.statistics import rms_band
 
 QUANTITIES = ("mean", "sd", "2.5%", "97.5%")
 
@@ -128,7 +128,7 @@ def main(argv=None):
     )  # (n_seeds, 4, r)
     n = len(runs)
     # Honest errors: n rms z^2 is chi-squared with n degrees of freedom.
-    band = np.sqrt(stats.chi2.ppf([0.025, 0.975], n) / n)
+    band = rms_band(n)
     print(
         f"parameter | quantity | rms z (95 % range if honest: [{band[0]:.2f}, "
         f"{band[1]:.2f}]) | mean mcse / posterior sd"

@@ -47,6 +47,7 @@ from scipy import stats
 import skmba.mcmc._reweight as reweight_module
 from skmba import ModularBayesCalibrator
 from skmba.datasets import make_bridge_monitoring
+from validation.statistics import rms_band
 
 DAY = 24
 QUANTITIES = ("mean", "sd")
@@ -187,7 +188,7 @@ def main(argv=None):
     n = len(reweighted)
     if not n:
         return
-    band = np.sqrt(stats.chi2.ppf([0.025, 0.975], n) / n)
+    band = rms_band(n)
     print(
         "rms z of the estimates against the reference's (95 % range if the "
         f"errors are honest: [{band[0]:.2f}, {band[1]:.2f}]), with errors from "

@@ -40,16 +40,16 @@ from unittest.mock import patch
 import numpy as np
 import threadpoolctl
 from joblib import Parallel, delayed
-from scipy import stats
 
 import skmba.calibration._module3_posterior as posterior_module
 from skmba import ModularBayesCalibrator
 from skmba.datasets import make_cantilever
 from skmba.mcmc._run import run_chains
+from validation.statistics import rms_band
 from validation.studies.ess_target import QUANTITIES, chain_estimates
 from validation.suite import registry
 
-LONG = 1000  # the calibrator's default burn-in
+LONG = ModularBayesCalibrator().burn_in  # the default burn-in (1000)
 
 
 def _data(case, seed):
@@ -127,7 +127,7 @@ def _rms_line(label, z):
     """rms z per quantity, with the range honest errors give (chi-squared,
     one degree of freedom per seed and parameter)."""
     n = z.shape[0] * z.shape[2]
-    band = np.sqrt(stats.chi2.ppf([0.025, 0.975], n) / n)
+    band = rms_band(n)
     rms = np.sqrt(np.mean(z**2, axis=(0, 2)))
     return (
         f"  rms z, {label} (95 % range if honest: [{band[0]:.2f}, {band[1]:.2f}]): "
