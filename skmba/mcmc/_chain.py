@@ -8,7 +8,9 @@ parallel; this module holds what one chain does, step by step:
   Saksman & Tamminen 2001) adapt during burn-in and are frozen after it;
 * with ``independence=p > 0``, independence moves (Tierney 1994) from the
   Student-t of :mod:`skmba.mcmc._proposals`, fitted to the latest half of
-  the burn-in, whose proposals a block evaluates together;
+  the burn-in (after it, when several chains run, to the latest halves of
+  all their burn-ins: :meth:`Chain.share_proposal`), whose proposals a
+  block evaluates together;
 * for a labelled target (a finite mixture, ``n_labels`` > 1), the sampling
   of ``(theta, k)`` with Gibbs updates of the label (Tanner & Wong 1987),
   and the fallback to the mixture when the joint chain mixes poorly.
@@ -65,7 +67,7 @@ OPTIMAL_SCALE = 2.38**2
 _TARGET_ACCEPTANCE_1D = 0.44
 _TARGET_ACCEPTANCE = 0.234
 # The proposal covariance is re-estimated every this many burn-in steps.
-_ADAPT_INTERVAL = 50
+ADAPT_INTERVAL = 50
 # Robbins-Monro gain on the log scale factor at burn-in step t: (t + 1)^-0.5.
 _GAIN_EXPONENT = 0.5
 # Number of steps per block of pre-drawn random numbers (and of independence
@@ -119,7 +121,7 @@ class Chain:
     """One chain between segments of its run: position, adaptation, draws.
 
     :meth:`advance` runs the adaptive burn-in in blocks of
-    ``_ADAPT_INTERVAL`` steps, then ``n_samples`` draws with the frozen
+    ``ADAPT_INTERVAL`` steps, then ``n_samples`` draws with the frozen
     kernel in blocks of ``_BLOCK`` steps (a block that a segment leaves
     unfinished is kept in ``pending``). The random numbers and the
     independence proposals of a block, with their densities, are computed
@@ -154,7 +156,7 @@ class Chain:
         self.glogp = None  # its log density at theta (None: not computed)
         self.log_scale = 0.0
         self.rw_steps = 0  # random-walk steps of the burn-in (Robbins-Monro)
-        n_blocks = -(-burn_in // _ADAPT_INTERVAL)
+        n_blocks = -(-burn_in // ADAPT_INTERVAL)
         self.counts = np.zeros(n_blocks)
         self.means = np.zeros((n_blocks, r))
         self.m2s = np.zeros((n_blocks, r, r))
@@ -317,14 +319,14 @@ class Chain:
         """One block of burn-in, then the adaptation of the proposals.
 
         The random-walk covariance and the independence proposal are
-        adapted every ``_ADAPT_INTERVAL`` steps from step
-        ``2 * _ADAPT_INTERVAL`` on, from the latest half of the blocks
+        adapted every ``ADAPT_INTERVAL`` steps from step
+        ``2 * ADAPT_INTERVAL`` on, from the latest half of the blocks
         (:func:`~skmba.mcmc._proposals.window_moments`).
         """
         r = self.theta.size
         target = _TARGET_ACCEPTANCE_1D if r == 1 else _TARGET_ACCEPTANCE
-        b, step = self.burned // _ADAPT_INTERVAL, self.burned
-        m = min(_ADAPT_INTERVAL, self.burn_in - step)
+        b, step = self.burned // ADAPT_INTERVAL, self.burned
+        m = min(ADAPT_INTERVAL, self.burn_in - step)
         if self.labelled:
             if step > 0:  # the first block's label is drawn by advance
                 self._gibbs_label(log_density, self.rng.random())
@@ -355,15 +357,10 @@ class Chain:
         self.accepts[b] = n_accept
         if self.labelled and step >= _JOINT_CHECK * self.burn_in:
             self._check_joint(log_density)
-        if step < 2 * _ADAPT_INTERVAL:
+        if step < 2 * ADAPT_INTERVAL:
             return
         window = slice((b + 1) // 2, b + 1)
-        moments = window_moments(
-            self.counts[window],
-            self.means[window],
-            self.m2s[window],
-            self.accepts[window],
-        )
+        moments = window_moments(*self.window_blocks())
         if moments is None:
             return
         if self.adapt and step < self.burn_in:
@@ -372,6 +369,31 @@ class Chain:
             self._set_proposal(*moments)
             if self.labelled and self.proposal is not None:
                 self._set_label_proposal(self.label_conditionals[window].mean(axis=0))
+
+    def window_blocks(self):
+        """The latest half of the burn-in blocks so far: their step counts,
+        means, sums of squared deviations and accepted moves (the arrays
+        :func:`~skmba.mcmc._proposals.window_moments` pools)."""
+        b = -(-self.burned // ADAPT_INTERVAL) - 1
+        window = slice((b + 1) // 2, b + 1)
+        return (
+            self.counts[window],
+            self.means[window],
+            self.m2s[window],
+            self.accepts[window],
+        )
+
+    def share_proposal(self, mean, cov):
+        """The independence proposal of the draws from moments pooled over
+        the chains' burn-ins (:func:`skmba.mcmc._run.run_chains`), set between
+        the burn-in and the first draw."""
+        if not self.frozen or self.drawn or self.pending is not None:
+            raise RuntimeError(
+                f"chain {self.chain}: the shared proposal must be set after the "
+                "burn-in and before the first draw"
+            )
+        if self.independence > 0.0:
+            self._set_proposal(mean, cov)
 
     def _adapt(self, mean, cov):
         """The random-walk proposal from a window's moments; kept as it is
@@ -477,7 +499,7 @@ class Chain:
                 self.label_probs is None or not self.independence
             )
             for i in range(block.next, stop):
-                if gibbs and step % _ADAPT_INTERVAL == 0:
+                if gibbs and step % ADAPT_INTERVAL == 0:
                     self._gibbs_label(log_density, block.label_u[i])
                 accepted, _ = self._step(log_density, block, i)
                 self.n_accept += accepted

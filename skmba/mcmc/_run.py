@@ -39,8 +39,9 @@ from scipy import linalg
 from skmba._core.progress import Progress, results_as_ready
 from skmba._core.threads import blas_threads
 from skmba._core.validation import check_count, seed_sequence
-from skmba.mcmc._chain import OPTIMAL_SCALE, Chain
+from skmba.mcmc._chain import ADAPT_INTERVAL, OPTIMAL_SCALE, Chain
 from skmba.mcmc._diagnostics import ess_bulk, split_rhat
+from skmba.mcmc._proposals import window_moments
 from skmba.mcmc._target import evaluate
 
 # With a progress bar, the chains run in about this many segments, after
@@ -174,13 +175,16 @@ def run_chains(
         Adapt the proposal during burn-in; ``False`` keeps ``proposal_cov``.
     independence : float in [0, 1), default=0.0
         Probability that a step is an independence move, from a Student-t
-        fitted to the chain's burn-in (:mod:`skmba.mcmc._chain`), instead of a
-        random-walk move. Independence moves start halfway through the
+        fitted to the chain's burn-in (:mod:`skmba.mcmc._chain`), instead of
+        a random-walk move. Independence moves start halfway through the
         burn-in, once the latest half of the burn-in so far holds
         ``max(10, 2 r)`` accepted moves (without burn-in, never; with
-        ``moments``, at the first step). 0.9
-        makes successive draws of a unimodal target nearly independent, at
-        one evaluation per step.
+        ``moments``, at the first step). After a burn-in of at least 100
+        steps, several chains share one Student-t, fitted to the latest
+        halves of all their burn-ins, so that a chain whose own window
+        missed part of the target does not propose short of it. 0.9 makes
+        successive draws of a unimodal target nearly independent, at one
+        evaluation per step.
     n_jobs : int, default=None
         Number of chains run at the same time by :class:`joblib.Parallel`
         (default backend, so :func:`joblib.parallel_config` applies).
@@ -303,10 +307,11 @@ def _run_parallel(
     Each chain is a :class:`~skmba.mcmc._chain.Chain` advanced by :func:`_advance` in
     :class:`joblib.Parallel` tasks: in one segment without a progress bar,
     else in about ``_PROGRESS_SEGMENTS`` segments, the bar being updated as
-    each returns, and at the checkpoints of ``stopping``. A chain's draws
-    depend on its seed only, not on the segments nor on where they run.
-    Returns the stacked
-    :class:`ChainResult`.
+    each returns, at the checkpoints of ``stopping`` and at the end of the
+    burn-in, where the chains get one independence proposal fitted to all
+    their burn-ins (:func:`_share_proposal`). The draws depend on the
+    seeds only, not on the segments nor on where they run. Returns the
+    stacked :class:`ChainResult`.
     """
     densities, states = [], []
     for c, (density, start, start_value, chol, seed) in enumerate(chains):
@@ -341,7 +346,10 @@ def _advance_in_segments(
     total, burn_in = states[0].total, states[0].burn_in
     segment = -(-total // _PROGRESS_SEGMENTS) if progress.enabled else total
     checks = [] if stopping is None else stopping.checkpoints(burn_in, total)
-    ends = sorted({*range(segment, total, segment), *checks, total})
+    shared = _shares_proposal(states)
+    ends = sorted(
+        {*range(segment, total, segment), *checks, *([burn_in] * shared), total}
+    )
     done = [0] * len(states)
     # The chains' limit held here too: a thread-based backend runs them in
     # this process (see skmba._core.threads.BlasTask).
@@ -362,6 +370,8 @@ def _advance_in_segments(
                 bar.update(state.steps - done[c])
                 _report_chain(progress, state, done[c])
                 done[c] = state.steps
+            if shared and until == burn_in:
+                _share_proposal(states)
             if until in checks and stopping.met(
                 np.stack([state.samples[: state.drawn] for state in states])
             ):
@@ -372,6 +382,33 @@ def _advance_in_segments(
                     f"target ESS {stopping.ess:g} is reached"
                 )
                 return
+
+
+def _shares_proposal(states):
+    """Whether the chains' draws propose from one Student-t, fitted to the
+    latest half of all their burn-ins (several chains with independence
+    moves and a burn-in long enough to adapt)."""
+    first = states[0]
+    return (
+        len(states) > 1
+        and first.independence > 0.0
+        and first.burn_in >= 2 * ADAPT_INTERVAL
+    )
+
+
+def _share_proposal(states):
+    """Give every chain the independence proposal of the pooled moments of
+    the latest half of their burn-ins (each chain keeps its own when too
+    few moves were accepted there; see
+    :func:`~skmba.mcmc._proposals.window_moments`)."""
+    blocks = [state.window_blocks() for state in states]
+    moments = window_moments(
+        *(np.concatenate(parts) for parts in zip(*blocks, strict=True))
+    )
+    if moments is None:
+        return
+    for state in states:
+        state.share_proposal(*moments)
 
 
 def _stop(densities, states, n_jobs, blas_order):

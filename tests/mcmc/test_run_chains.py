@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
+from skmba.mcmc._chain import Chain
 from skmba.mcmc._diagnostics import check_diagnostics, ess_bulk
 from skmba.mcmc._run import ChainResult, run_chains
 from skmba.mcmc._stopping import CHECK_EVERY
@@ -772,3 +773,93 @@ def test_moments_with_a_singular_covariance_are_not_used():
         )
 
     _assert_identical(run((np.zeros(2), np.zeros((2, 2)))), run(None))
+
+
+def _shared_proposals(monkeypatch):
+    """The calls of Chain.share_proposal: (chain, steps done, mean, cov)."""
+    calls = []
+    original = Chain.share_proposal
+
+    def spy(self, mean, cov):
+        calls.append((self.chain, self.steps, mean.copy(), cov.copy()))
+        original(self, mean, cov)
+
+    monkeypatch.setattr(Chain, "share_proposal", spy)
+    return calls
+
+
+# A correlated Gaussian in standardised units, as the calibrator's chains
+# see their posteriors: burn-ins of 1000 steps reach it.
+UNIT_COV = np.array([[1.0, RHO], [RHO, 1.0]])
+UNIT_PRECISION = np.linalg.inv(UNIT_COV)
+
+
+def unit_gaussian(theta):
+    return -0.5 * float(theta @ UNIT_PRECISION @ theta)
+
+
+@pytest.mark.parametrize("verbose", [0, 1])
+def test_the_chains_draw_from_one_proposal_fitted_to_all_their_burn_ins(
+    monkeypatch, verbose
+):
+    calls = _shared_proposals(monkeypatch)
+    z = np.random.default_rng(1).normal(size=(4, 2))
+    _mixed(
+        unit_gaussian,
+        2.0 * z @ np.linalg.cholesky(UNIT_COV).T,
+        0.9,
+        1,
+        n_samples=500,
+        burn_in=1000,
+        verbose=verbose,
+    )
+    # Once per chain, at the end of the burn-in, whatever the segments.
+    assert [(c, steps) for c, steps, _, _ in calls] == [(c, 1000) for c in range(4)]
+    mean, cov = calls[0][2], calls[0][3]
+    for _, _, other_mean, other_cov in calls[1:]:
+        np.testing.assert_array_equal(other_mean, mean)
+        np.testing.assert_array_equal(other_cov, cov)
+    # The latest halves of four burn-ins, 2000 draws: the target's moments
+    # (over seeds 0-7, means within 0.08, sds within 4 %, the correlation
+    # within 0.013).
+    assert np.all(np.abs(mean) < 0.15)
+    sd = np.sqrt(np.diag(cov))
+    assert np.all((0.9 < sd) & (sd < 1.1))
+    assert abs(cov[0, 1] / (sd[0] * sd[1]) - RHO) < 0.03
+
+
+@pytest.mark.parametrize(
+    "n_chains, independence, burn_in", [(1, 0.9, 1000), (4, 0.0, 1000), (4, 0.9, 50)]
+)
+def test_no_shared_proposal_without_chains_moves_or_burn_in_to_pool(
+    monkeypatch, n_chains, independence, burn_in
+):
+    calls = _shared_proposals(monkeypatch)
+    _mixed(
+        correlated_gaussian,
+        dispersed_starts(n_chains, seed=1),
+        independence,
+        1,
+        n_samples=100,
+        burn_in=burn_in,
+    )
+    assert calls == []
+
+
+def test_the_shared_proposal_is_set_between_burn_in_and_draws():
+    chain = Chain(
+        np.zeros(2),
+        0.0,
+        np.eye(2),
+        0,
+        n_samples=100,
+        burn_in=100,
+        adapt=True,
+        chain=0,
+        independence=0.9,
+    )
+    with pytest.raises(RuntimeError, match="after the burn-in and before the first"):
+        chain.share_proposal(np.zeros(2), np.eye(2))
+    chain.advance(standard_normal, 150)
+    with pytest.raises(RuntimeError, match="after the burn-in and before the first"):
+        chain.share_proposal(np.zeros(2), np.eye(2))
