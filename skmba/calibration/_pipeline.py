@@ -78,6 +78,14 @@ from skmba.priors._table_6_2 import ranges_text
 #: pass (at most; fewer when the calibrator's own are).
 FIRST_PASS_MCMC = {"n_chains": 2, "n_samples": 250, "burn_in": 500}
 
+#: Chains that start from an earlier run's draws (the second pass, an
+#: update's chains) burn in this share of ``burn_in`` (250 of the default
+#: 1000): they propose from those draws' moments at once and, after the
+#: burn-in, from a Student-t fitted to all the chains' burn-ins together
+#: (:mod:`skmba.mcmc._run`). Measured against long chains:
+#: docs/internals.rst, section skmba.mcmc._chain.
+WARM_BURN_IN_SHARE = 0.25
+
 #: An update searches module 2's mode from the last mode alone, without the
 #: settings' random restarts, until its field data hold this share more
 #: measured values than when the restarts last ran: a batch small beside
@@ -544,6 +552,13 @@ def _posterior(inputs, log_post, seed, first_pass, earlier):
     length = {"n_chains": s.n_chains, "n_samples": s.n_samples, "burn_in": s.burn_in}
     if first_pass:
         length = {k: min(v, length[k]) for k, v in FIRST_PASS_MCMC.items()}
+    draws = (
+        earlier.samples
+        if earlier is not None and earlier.method in ("mcmc", "reweighted")
+        else None
+    )
+    if draws is not None:
+        length["burn_in"] = round(WARM_BURN_IN_SHARE * s.burn_in)
     return posterior_by_mcmc(
         log_post,
         **length,
@@ -553,9 +568,5 @@ def _posterior(inputs, log_post, seed, first_pass, earlier):
         progress=inputs.progress,
         check=not first_pass,
         joint=first_pass,
-        earlier=(
-            earlier.samples
-            if earlier is not None and earlier.method in ("mcmc", "reweighted")
-            else None
-        ),
+        earlier=draws,
     )

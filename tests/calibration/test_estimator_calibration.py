@@ -1056,6 +1056,26 @@ def test_target_ess_ends_the_chains_early_on_the_full_run_s_first_draws():
         fit(BAD, target_ess=0, **kwargs)
 
 
+def test_chains_started_from_earlier_draws_burn_in_a_quarter(monkeypatch):
+    """The propagated module 2's first pass burns in at most 500 steps from
+    the mode; the second pass starts from its draws and burns in
+    ``WARM_BURN_IN_SHARE`` of ``burn_in`` (docs/internals.rst,
+    skmba.mcmc._chain)."""
+    calls, run_chains = [], posterior_module.run_chains
+
+    def recorded(*args, **kwargs):
+        calls.append((kwargs["burn_in"], kwargs["moments"] is not None))
+        return run_chains(*args, **kwargs)
+
+    monkeypatch.setattr(posterior_module, "run_chains", recorded)
+    data = make_cantilever(30, 10, parameters=("E", "I"), random_state=0)
+    assert mba_module.WARM_BURN_IN_SHARE == 0.25
+    for burn_in, first, second in ((1000, 500, 250), (400, 400, 100)):
+        calls.clear()
+        fit(data, n_restarts_optimizer=0, n_samples=250, burn_in=burn_in)
+        assert calls == [(first, False), (second, True)]
+
+
 # --------------------------------------------------------------------- memory
 def patch_memory_check(monkeypatch, check):
     """Replace check_memory in every module that budgets memory."""

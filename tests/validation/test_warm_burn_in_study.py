@@ -1,31 +1,35 @@
-"""The burn-in study's fixed-seed subset: what docs/internals.rst says of a
-shorter burn-in for the second pass (skmba.mcmc._chain). On a2 seed 2 the
-chains after 250 steps report R-hat at most 1.005 yet give sds 0.78-0.80
-of a long reference's, where the default 1,000 steps give 1.02-1.03."""
+"""The burn-in study's fixed-seed subset: what docs/internals.rst says of
+the second pass's short burn-in (skmba.mcmc._chain). On sbc_a2 seed 35,
+chains that each fitted their own Student-t to the latest half of a
+250-step burn-in did not mix (R-hat 1.31, sds 0.39-0.76 of a long
+reference's); with one Student-t fitted to all four burn-ins, as the
+calibrator now does, the 250 steps give the reference's sd."""
 
 import numpy as np
 import pytest
 
-from validation.studies.warm_burn_in import one_fit
+from validation.studies.warm_burn_in import LONG, SHORT, one_fit
 
 
 @pytest.mark.slow
-def test_a_short_burn_in_misses_part_of_the_posterior_unseen_by_r_hat():
-    short, default, reference = (
-        one_fit("a2", 2, version, 20000) for version in (250, 1000, "reference")
-    )
-    # One posterior: module 2 and the first pass are the same in every fit.
-    for fit in (short, default):
-        np.testing.assert_array_equal(fit["module2"], reference["module2"])
+def test_the_short_burn_in_with_the_pooled_proposal_samples_the_posterior():
+    short, reference = (one_fit("sbc_a2", 35, v, 20000) for v in (SHORT, "reference"))
+    # One posterior: module 2 and the first pass are the same in both fits.
+    np.testing.assert_array_equal(short["module2"], reference["module2"])
     assert reference["rhat"] < 1.005 and reference["draws"] == 20000
-
-    def sd_ratio(fit):
-        return fit["estimates"][0][1] / reference["estimates"][0][1]
-
-    # The short burn-in's chains look converged and are a fifth too narrow.
     assert short["rhat"] <= 1.01
-    assert np.all((0.7 < sd_ratio(short)) & (sd_ratio(short) < 0.88))
-    # After the default burn-in the sd is the reference's, from both sides.
-    assert np.all((0.94 < sd_ratio(default)) & (sd_ratio(default) < 1.08))
-    # The short burn-in makes fewer steps: what it would have saved.
-    assert short["steps"] < default["steps"]
+    (values, errors), (ref_values, ref_errors) = (
+        short["estimates"],
+        reference["estimates"],
+    )
+    # The mean, sd and 95 % ends within three combined Monte Carlo errors of
+    # the reference's (measured: at most 2.0), and the sd within 7 % from
+    # both sides (measured: 1.03 and 1.04).
+    z = (values - ref_values) / np.hypot(errors, ref_errors)
+    assert np.all(np.abs(z) < 3)
+    ratio = values[1] / ref_values[1]
+    assert np.all((0.93 < ratio) & (ratio < 1.07))
+    # What the short burn-in saves: the calibrator's default is the short
+    # one, and its second pass makes fewer steps than after LONG.
+    assert (SHORT, LONG) == (250, 1000)
+    assert short["steps"] < 4 * (LONG + short["draws"])
