@@ -126,8 +126,8 @@ class ModularBayesCalibrator(
         for more (with a larger ``n_samples``) for finer interval ends.
     burn_in : int, default=1000
         Draws per chain discarded; the proposal adapts during burn-in only.
-        Chains that start from earlier draws (the second pass of the
-        propagated module 2, an update's chains) burn in a quarter of it.
+        The second pass of the propagated module 2, whose chains start from
+        the first pass's draws, burns in a quarter of it.
     n_jobs : int, default=None
         Parallel chains, module-2 node blocks and module-4 predictions
         through joblib (also on Dask); ``-1`` all cores.

@@ -70,6 +70,7 @@ from skmba.calibration._module3_posterior import (
 )
 from skmba.calibration._module3_update import reweighted_posterior
 from skmba.calibration._module4_prediction import PredictionRule, prediction_rule
+from skmba.mcmc._chain import ADAPT_INTERVAL
 from skmba.priors._hyperprior import Hyperprior
 from skmba.priors._table_6_2 import ranges_text
 
@@ -78,12 +79,14 @@ from skmba.priors._table_6_2 import ranges_text
 #: pass (at most; fewer when the calibrator's own are).
 FIRST_PASS_MCMC = {"n_chains": 2, "n_samples": 250, "burn_in": 500}
 
-#: Chains that start from an earlier run's draws (the second pass, an
-#: update's chains) burn in this share of ``burn_in`` (250 of the default
-#: 1000): they propose from those draws' moments at once and, after the
-#: burn-in, from a Student-t fitted to all the chains' burn-ins together
-#: (:mod:`skmba.mcmc._run`). Measured against long chains:
-#: docs/internals.rst, section skmba.mcmc._chain.
+#: The second pass's chains, which start from the first pass's draws, burn
+#: in this share of ``burn_in`` (250 of the default 1000): they propose from
+#: those draws' moments at once and, after the burn-in, from a Student-t
+#: fitted to all the chains' burn-ins together (:mod:`skmba.mcmc._run`).
+#: Measured against long chains: docs/internals.rst, section
+#: skmba.mcmc._chain. An update's chains, which start from the last
+#: posterior's draws on other data, were not measured so: they burn in
+#: ``burn_in``.
 WARM_BURN_IN_SHARE = 0.25
 
 #: An update searches module 2's mode from the last mode alone, without the
@@ -536,6 +539,14 @@ def fit_module3(inputs, module2, seed, *, first_pass=False, earlier=None):
     return Module3Result(log_post, posterior, rule)
 
 
+def warm_burn_in(burn_in):
+    """The second pass's burn-in: :data:`WARM_BURN_IN_SHARE` of
+    ``burn_in``, at least the 100 steps in which the chains adapt and pool
+    their proposal (:data:`~skmba.mcmc._chain.ADAPT_INTERVAL` twice), and
+    at most ``burn_in``."""
+    return min(burn_in, max(round(WARM_BURN_IN_SHARE * burn_in), 2 * ADAPT_INTERVAL))
+
+
 def _sampler(inputs):
     """The sampler of the settings: quadrature (one parameter) or MCMC."""
     s = inputs.settings.sampler
@@ -557,8 +568,8 @@ def _posterior(inputs, log_post, seed, first_pass, earlier):
         if earlier is not None and earlier.method in ("mcmc", "reweighted")
         else None
     )
-    if draws is not None:
-        length["burn_in"] = round(WARM_BURN_IN_SHARE * s.burn_in)
+    if draws is not None and inputs.warm is None:  # the second pass
+        length["burn_in"] = warm_burn_in(s.burn_in)
     return posterior_by_mcmc(
         log_post,
         **length,

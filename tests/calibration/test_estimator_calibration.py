@@ -1056,11 +1056,12 @@ def test_target_ess_ends_the_chains_early_on_the_full_run_s_first_draws():
         fit(BAD, target_ess=0, **kwargs)
 
 
-def test_chains_started_from_earlier_draws_burn_in_a_quarter(monkeypatch):
+def test_the_second_pass_burns_in_a_quarter_and_an_update_all(monkeypatch):
     """The propagated module 2's first pass burns in at most 500 steps from
     the mode; the second pass starts from its draws and burns in
-    ``WARM_BURN_IN_SHARE`` of ``burn_in`` (docs/internals.rst,
-    skmba.mcmc._chain)."""
+    ``WARM_BURN_IN_SHARE`` of ``burn_in``, at least the 100 steps that adapt
+    (docs/internals.rst, skmba.mcmc._chain); an update's chains, started
+    from the last posterior's draws, burn in ``burn_in``."""
     calls, run_chains = [], posterior_module.run_chains
 
     def recorded(*args, **kwargs):
@@ -1068,12 +1069,27 @@ def test_chains_started_from_earlier_draws_burn_in_a_quarter(monkeypatch):
         return run_chains(*args, **kwargs)
 
     monkeypatch.setattr(posterior_module, "run_chains", recorded)
-    data = make_cantilever(30, 10, parameters=("E", "I"), random_state=0)
+    data = make_cantilever(30, 12, parameters=("E", "I"), random_state=0)
     assert mba_module.WARM_BURN_IN_SHARE == 0.25
-    for burn_in, first, second in ((1000, 500, 250), (400, 400, 100)):
+    for burn_in, first, second in ((1000, 500, 250), (400, 400, 100), (60, 60, 60)):
         calls.clear()
         fit(data, n_restarts_optimizer=0, n_samples=250, burn_in=burn_in)
         assert calls == [(first, False), (second, True)]
+    calls.clear()
+    cal = ModularBayesCalibrator(
+        prior=data.prior,
+        n_restarts_optimizer=0,
+        n_samples=250,
+        burn_in=400,
+        random_state=0,
+    )
+    sims = dict(X_sim=data.X_sim, theta_sim=data.theta_sim, y_sim=data.y_sim)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        cal.partial_fit(data.X_obs[:3], data.y_obs[:3], **sims)
+        # Nine readings after three: the reweighted draws do not do.
+        cal.partial_fit(data.X_obs[3:], data.y_obs[3:])
+    assert calls == [(400, False), (100, True), (400, True)]
 
 
 # --------------------------------------------------------------------- memory
