@@ -359,7 +359,7 @@ class Chain:
             self._check_joint(log_density)
         if step < 2 * ADAPT_INTERVAL:
             return
-        window = slice((b + 1) // 2, b + 1)
+        window = self._window()
         moments = window_moments(*self.window_blocks())
         if moments is None:
             return
@@ -374,8 +374,7 @@ class Chain:
         """The latest half of the burn-in blocks so far: their step counts,
         means, sums of squared deviations and accepted moves (the arrays
         :func:`~skmba.mcmc._proposals.window_moments` pools)."""
-        b = -(-self.burned // ADAPT_INTERVAL) - 1
-        window = slice((b + 1) // 2, b + 1)
+        window = self._window()
         return (
             self.counts[window],
             self.means[window],
@@ -392,8 +391,20 @@ class Chain:
                 f"chain {self.chain}: the shared proposal must be set after the "
                 "burn-in and before the first draw"
             )
-        if self.independence > 0.0:
-            self._set_proposal(mean, cov)
+        if self.independence <= 0.0:
+            return
+        self._set_proposal(mean, cov)
+        if self.labelled and self.label_probs is None and self.proposal is not None:
+            # A chain whose own windows never held enough accepted moves for
+            # a Student-t has no label proposal either: that of its window.
+            self._set_label_proposal(
+                self.label_conditionals[self._window()].mean(axis=0)
+            )
+
+    def _window(self):
+        """The slice of the burn-in blocks in the latest half so far."""
+        b = -(-self.burned // ADAPT_INTERVAL) - 1
+        return slice((b + 1) // 2, b + 1)
 
     def _adapt(self, mean, cov):
         """The random-walk proposal from a window's moments; kept as it is

@@ -10,6 +10,7 @@ from scipy import stats
 
 from skmba.mcmc._chain import Chain
 from skmba.mcmc._diagnostics import check_diagnostics, ess_bulk
+from skmba.mcmc._proposals import label_proposal
 from skmba.mcmc._run import ChainResult, run_chains
 from skmba.mcmc._stopping import CHECK_EVERY
 
@@ -863,3 +864,31 @@ def test_the_shared_proposal_is_set_between_burn_in_and_draws():
     chain.advance(standard_normal, 150)
     with pytest.raises(RuntimeError, match="after the burn-in and before the first"):
         chain.share_proposal(np.zeros(2), np.eye(2))
+
+
+def test_a_labelled_chain_without_its_own_student_t_gets_a_label_proposal():
+    # A joint chain whose windows never held enough accepted moves ends its
+    # burn-in without a Student-t, hence without a label proposal (the
+    # validity suite's a2 seed 170, the first pass); the shared Student-t
+    # comes with the label proposal of its window.
+    target = _GaussianMixture()
+    chain = Chain(
+        np.zeros(2),
+        target(np.zeros(2)),
+        np.eye(2),
+        0,
+        n_samples=250,
+        burn_in=100,
+        adapt=True,
+        chain=0,
+        independence=0.9,
+        n_labels=3,
+    )
+    chain.advance(target, 100)
+    chain.proposal, chain.label_probs = None, None  # as after such a burn-in
+    chain.share_proposal(*target.moments())
+    conditionals = chain.label_conditionals[1:2].mean(axis=0)
+    np.testing.assert_allclose(chain.label_probs, label_proposal(conditionals))
+    chain.advance(target, 350)
+    assert chain.drawn == 250 and np.all(np.isfinite(chain.samples))
+    assert chain.n_independent > 0
