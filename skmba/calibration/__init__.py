@@ -44,6 +44,7 @@ file                               holds
                                    also for a stack of thetas at once
 ``_module3_mixture.py``            module 3 over module 2's draws
 ``_module3_posterior.py``          the posterior of theta (``sampler``)
+``_module3_density.py``            the ``log_posterior`` method
 ``_module3_identifiability.py``    ``identifiability_`` and its warning
 ``_module4_prediction.py``         module 4: the predictions
 ``_best_fit.py``                   ``estimand="best_fit"``: reality's

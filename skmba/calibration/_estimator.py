@@ -45,8 +45,8 @@ from skmba.calibration._fit_setup import (
     warn_field_size,
 )
 from skmba.calibration._fitted import OPTIONAL_FITTED, fitted_attributes
+from skmba.calibration._module3_density import PosteriorDensityMixin
 from skmba.calibration._module3_identifiability import warn_if_confounded
-from skmba.calibration._module3_posterior import PosteriorDensityMixin
 from skmba.calibration._module4_prediction import CalibratedPredictionMixin
 from skmba.calibration._pipeline import WarmStart, run_modules
 from skmba.calibration._sensitivity import PriorSensitivityMixin
