@@ -29,7 +29,7 @@ from skmba._core.progress import as_progress
 from skmba._core.validation import seed_sequence
 from skmba._core.warn import warn
 from skmba.calibration._module3_mixture import IDLE_CHECK_THETAS, draw_weights_of
-from skmba.mcmc._diagnostics import check_diagnostics
+from skmba.mcmc._diagnostics import MAX_RHAT, check_diagnostics, split_rhat
 from skmba.mcmc._posterior import PosteriorResult, laplace
 from skmba.mcmc._run import run_chains
 from skmba.mcmc._stopping import EssTarget
@@ -407,6 +407,7 @@ def posterior_by_mcmc(
     earlier=None,
     joint=False,
     target_ess=None,
+    fallback_burn_in=None,
 ):
     """Metropolis-Hastings chains on the sampling coordinates.
 
@@ -439,6 +440,11 @@ def posterior_by_mcmc(
         End the draws once every parameter's bulk and tail ESS reach it and
         its R-hat is at most 1.01 (:class:`~skmba.mcmc._stopping.EssTarget`);
         ``n_samples`` is then the most. None: ``n_samples`` draws.
+    fallback_burn_in : int, default=None
+        A longer burn-in for chains started from ``earlier`` after a short
+        ``burn_in`` (the second pass): when their draws would warn of R-hat
+        above 1.01 for theta, the chains run again after this many steps
+        (the draws of a run with this burn-in).
 
     Returns
     -------
@@ -464,6 +470,16 @@ def posterior_by_mcmc(
     chain_posterior, kept = _without_idle_draws(log_posterior, mode, cov, starts)
 
     def sample(target):
+        result = run(target, burn_in)
+        if fallback_burn_in is not None and not _mixed(log_posterior, result):
+            say(
+                f"module 3: the chains after {burn_in} burn-in steps have not "
+                f"mixed; they run again after {fallback_burn_in}"
+            )
+            result = run(target, fallback_burn_in)
+        return result
+
+    def run(target, burn_in):
         # A copy: spawning the chains' seeds advances a SeedSequence, and a
         # second run must draw what the first drew.
         return run_chains(
@@ -490,6 +506,14 @@ def posterior_by_mcmc(
             log_posterior, sample, result, kept, n_jobs, say
         )
     return _mcmc_result(log_posterior, result, kept, check, say)
+
+
+def _mixed(log_posterior, result):
+    """Whether the chains' draws of theta pass the R-hat check that
+    :func:`~skmba.mcmc._diagnostics.check_diagnostics` warns about (a short
+    run's low ESS is not the burn-in's doing)."""
+    chains = log_posterior.from_u(result.samples)
+    return all(split_rhat(chains[:, :, j]) <= MAX_RHAT for j in range(chains.shape[-1]))
 
 
 def _checked_idle_draws(log_posterior, sample, result, kept, n_jobs, say):

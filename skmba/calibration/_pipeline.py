@@ -84,9 +84,11 @@ FIRST_PASS_MCMC = {"n_chains": 2, "n_samples": 250, "burn_in": 500}
 #: those draws' moments at once and, after the burn-in, from a Student-t
 #: fitted to all the chains' burn-ins together (:mod:`skmba.mcmc._run`).
 #: Measured against long chains: docs/internals.rst, section
-#: skmba.mcmc._chain. An update's chains, which start from the last
-#: posterior's draws on other data, were not measured so: they burn in
-#: ``burn_in``.
+#: skmba.mcmc._chain. Chains whose draws would warn of R-hat run again
+#: after ``burn_in`` steps: a first pass that located the posterior poorly
+#: leaves too little burn-in to adapt. An update's chains, which start from
+#: the last posterior's draws on other data, were not measured so: they burn
+#: in ``burn_in``.
 WARM_BURN_IN_SHARE = 0.25
 
 #: An update searches module 2's mode from the last mode alone, without the
@@ -568,8 +570,10 @@ def _posterior(inputs, log_post, seed, first_pass, earlier):
         if earlier is not None and earlier.method in ("mcmc", "reweighted")
         else None
     )
+    fallback = None
     if draws is not None and inputs.warm is None:  # the second pass
         length["burn_in"] = warm_burn_in(s.burn_in)
+        fallback = s.burn_in if length["burn_in"] < s.burn_in else None
     return posterior_by_mcmc(
         log_post,
         **length,
@@ -580,4 +584,5 @@ def _posterior(inputs, log_post, seed, first_pass, earlier):
         check=not first_pass,
         joint=first_pass,
         earlier=draws,
+        fallback_burn_in=fallback,
     )

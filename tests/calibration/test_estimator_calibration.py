@@ -1069,6 +1069,9 @@ def test_the_second_pass_burns_in_a_quarter_and_an_update_all(monkeypatch):
         return run_chains(*args, **kwargs)
 
     monkeypatch.setattr(posterior_module, "run_chains", recorded)
+    # As if the short runs mixed (R-hat at most 1.01; the next test takes
+    # the other branch).
+    monkeypatch.setattr(posterior_module, "_mixed", lambda *args: True)
     data = make_cantilever(30, 12, parameters=("E", "I"), random_state=0)
     assert mba_module.WARM_BURN_IN_SHARE == 0.25
     for burn_in, first, second in ((1000, 500, 250), (400, 400, 100), (60, 60, 60)):
@@ -1090,6 +1093,32 @@ def test_the_second_pass_burns_in_a_quarter_and_an_update_all(monkeypatch):
         # Nine readings after three: the reweighted draws do not do.
         cal.partial_fit(data.X_obs[3:], data.y_obs[3:])
     assert calls == [(400, False), (100, True), (400, True)]
+
+
+def test_a_second_pass_that_would_warn_runs_again_after_the_full_burn_in(
+    monkeypatch,
+):
+    """Chains of the second pass whose draws fail the R-hat check after the
+    quarter burn-in run again after ``burn_in``: the fit is then the one
+    whose second pass burns in ``burn_in`` from the start."""
+    calls, run_chains = [], posterior_module.run_chains
+
+    def recorded(*args, **kwargs):
+        calls.append(kwargs["burn_in"])
+        return run_chains(*args, **kwargs)
+
+    monkeypatch.setattr(posterior_module, "run_chains", recorded)
+    # As if the short run's R-hat were above 1.01 (judged once, after it).
+    monkeypatch.setattr(posterior_module, "_mixed", lambda *args: False)
+    data = make_cantilever(30, 12, parameters=("E", "I"), random_state=0)
+    params = dict(n_restarts_optimizer=0, n_samples=250, burn_in=400)
+    again = fit(data, **params)
+    assert calls == [400, 100, 400]
+    monkeypatch.setattr(mba_module, "WARM_BURN_IN_SHARE", 1.0)
+    calls.clear()
+    full = fit(data, **params)
+    assert calls == [400, 400]
+    np.testing.assert_array_equal(again.theta_chains_, full.theta_chains_)
 
 
 # --------------------------------------------------------------------- memory
