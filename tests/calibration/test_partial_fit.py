@@ -102,9 +102,11 @@ def test_an_update_searches_module_2_from_the_last_mode_until_the_data_grow(
     monkeypatch,
 ):
     """A day added to half a year starts module 2's search at the last mode
-    alone; the restarts would have changed nothing (the same posterior, bit
-    for bit: they end no better). They run again once the data hold a tenth
-    more values than when they last ran (a month)."""
+    alone; the restarts would have changed theta's posterior by little (they
+    end on the same ridge, here 0.1 nats higher: theta's means within 0.04
+    posterior sd and its sds within 4.2 %; measured, and held to the issue's
+    monthly bound). They run again once the data hold a tenth more values
+    than when they last ran (a month)."""
     restarts, search = [], pipeline.fit_hyperposterior
 
     def spy(*args, **kwargs):
@@ -124,7 +126,10 @@ def test_an_update_searches_module_2_from_the_last_mode_until_the_data_grow(
     monkeypatch.setattr(pipeline, "RESTART_GROWTH", -1.0)  # restarts always
     again = quiet(pickle.loads(blob).partial_fit, X[first], Y[first])
     assert restarts[3:] == [2]
-    np.testing.assert_array_equal(again.theta_samples_, half.theta_samples_)
+    sd = np.sqrt(np.diag(half.theta_cov_))
+    assert np.all(np.abs(again.theta_mean_ - half.theta_mean_) <= 0.1 * sd)
+    ratio = np.sqrt(np.diag(again.theta_cov_)) / sd
+    assert np.all(np.abs(ratio - 1.0) <= 0.1), ratio
     monkeypatch.undo()
     monkeypatch.setattr(pipeline, "fit_hyperposterior", spy)
     rest = (month == 7) & (day > 1)
