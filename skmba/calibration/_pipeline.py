@@ -70,7 +70,7 @@ from skmba.calibration._module3_posterior import (
 )
 from skmba.calibration._module3_update import reweighted_posterior
 from skmba.calibration._module4_prediction import PredictionRule, prediction_rule
-from skmba.mcmc._chain import ADAPT_INTERVAL
+from skmba.mcmc._chain import MIN_ADAPTIVE_BURN_IN
 from skmba.priors._hyperprior import Hyperprior
 from skmba.priors._table_6_2 import ranges_text
 
@@ -544,9 +544,9 @@ def fit_module3(inputs, module2, seed, *, first_pass=False, earlier=None):
 def warm_burn_in(burn_in):
     """The second pass's burn-in: :data:`WARM_BURN_IN_SHARE` of
     ``burn_in``, at least the 100 steps in which the chains adapt and pool
-    their proposal (:data:`~skmba.mcmc._chain.ADAPT_INTERVAL` twice), and
+    their proposal (:data:`~skmba.mcmc._chain.MIN_ADAPTIVE_BURN_IN`), and
     at most ``burn_in``."""
-    return min(burn_in, max(round(WARM_BURN_IN_SHARE * burn_in), 2 * ADAPT_INTERVAL))
+    return min(burn_in, max(round(WARM_BURN_IN_SHARE * burn_in), MIN_ADAPTIVE_BURN_IN))
 
 
 def _sampler(inputs):

@@ -68,6 +68,10 @@ _TARGET_ACCEPTANCE_1D = 0.44
 _TARGET_ACCEPTANCE = 0.234
 # The proposal covariance is re-estimated every this many burn-in steps.
 ADAPT_INTERVAL = 50
+#: The first burn-in step at which the proposals adapt to the chain's draws
+#: (the window of the latest half then holds a whole block): a shorter
+#: burn-in adapts nothing, and its chains share no proposal.
+MIN_ADAPTIVE_BURN_IN = 2 * ADAPT_INTERVAL
 # Robbins-Monro gain on the log scale factor at burn-in step t: (t + 1)^-0.5.
 _GAIN_EXPONENT = 0.5
 # Number of steps per block of pre-drawn random numbers (and of independence
@@ -320,7 +324,7 @@ class Chain:
 
         The random-walk covariance and the independence proposal are
         adapted every ``ADAPT_INTERVAL`` steps from step
-        ``2 * ADAPT_INTERVAL`` on, from the latest half of the blocks
+        ``MIN_ADAPTIVE_BURN_IN`` on, from the latest half of the blocks
         (:func:`~skmba.mcmc._proposals.window_moments`).
         """
         r = self.theta.size
@@ -357,7 +361,7 @@ class Chain:
         self.accepts[b] = n_accept
         if self.labelled and step >= _JOINT_CHECK * self.burn_in:
             self._check_joint(log_density)
-        if step < 2 * ADAPT_INTERVAL:
+        if step < MIN_ADAPTIVE_BURN_IN:
             return
         window = self._window()
         moments = window_moments(*self.window_blocks())

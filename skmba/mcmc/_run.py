@@ -39,7 +39,7 @@ from scipy import linalg
 from skmba._core.progress import Progress, results_as_ready
 from skmba._core.threads import blas_threads
 from skmba._core.validation import check_count, seed_sequence
-from skmba.mcmc._chain import ADAPT_INTERVAL, OPTIMAL_SCALE, Chain
+from skmba.mcmc._chain import MIN_ADAPTIVE_BURN_IN, OPTIMAL_SCALE, Chain
 from skmba.mcmc._diagnostics import ess_bulk, split_rhat
 from skmba.mcmc._proposals import window_moments
 from skmba.mcmc._target import evaluate
@@ -392,7 +392,7 @@ def _shares_proposal(states):
     return (
         len(states) > 1
         and first.independence > 0.0
-        and first.burn_in >= 2 * ADAPT_INTERVAL
+        and first.burn_in >= MIN_ADAPTIVE_BURN_IN
     )
 
 

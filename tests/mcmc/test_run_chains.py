@@ -847,18 +847,24 @@ def test_no_shared_proposal_without_chains_moves_or_burn_in_to_pool(
     assert calls == []
 
 
-def test_the_shared_proposal_is_set_between_burn_in_and_draws():
-    chain = Chain(
+def _chain_at_zero(log_density, n_samples, **kwargs):
+    """A chain of 100 burn-in steps with independence moves, from the origin."""
+    return Chain(
         np.zeros(2),
-        0.0,
+        log_density(np.zeros(2)),
         np.eye(2),
         0,
-        n_samples=100,
+        n_samples=n_samples,
         burn_in=100,
         adapt=True,
         chain=0,
         independence=0.9,
+        **kwargs,
     )
+
+
+def test_the_shared_proposal_is_set_between_burn_in_and_draws():
+    chain = _chain_at_zero(standard_normal, 100)
     with pytest.raises(RuntimeError, match="after the burn-in and before the first"):
         chain.share_proposal(np.zeros(2), np.eye(2))
     chain.advance(standard_normal, 150)
@@ -872,18 +878,7 @@ def test_a_labelled_chain_without_its_own_student_t_gets_a_label_proposal():
     # validity suite's a2 seed 170, the first pass); the shared Student-t
     # comes with the label proposal of its window.
     target = _GaussianMixture()
-    chain = Chain(
-        np.zeros(2),
-        target(np.zeros(2)),
-        np.eye(2),
-        0,
-        n_samples=250,
-        burn_in=100,
-        adapt=True,
-        chain=0,
-        independence=0.9,
-        n_labels=3,
-    )
+    chain = _chain_at_zero(target, 250, n_labels=3)
     chain.advance(target, 100)
     chain.proposal, chain.label_probs = None, None  # as after such a burn-in
     chain.share_proposal(*target.moments())
