@@ -28,9 +28,20 @@ against the reference, with the 95 % range honest errors give
 where the two differ most; per version the R-hat warnings, the draws kept,
 the second pass's steps and the times.
 
+With ``--update s`` the study asks the same of an update's chains, which
+start from the last posterior's draws on fewer readings and burn in
+``burn_in``: each seed is fitted with the defaults on the first share
+``s`` of its field data (the same fit in every version), then
+``partial_fit`` with the rest, whose chains (when the reweighted draws do
+not do) burn in ``--short`` steps, 1000 or those of the reference, every
+version forced and without a fallback. Seeds whose update reweighted are
+left out.
+
 Usage::
 
     python -m validation.studies.warm_burn_in --cases a2,b2,sbc_a2 \
+        --n-seeds 40 --reference-draws 20000 --n-jobs 2
+    python -m validation.studies.warm_burn_in --cases a2,b2 --update 0.25 \
         --n-seeds 40 --reference-draws 20000 --n-jobs 2
 
 The results (per-chain proposals, where 250 steps were not enough, and
@@ -75,25 +86,37 @@ def _data(case, seed):
     return c.prior, c.X, c.y, c.X_sim, c.theta_sim, c.y_sim
 
 
-def one_fit(case, seed, version, reference_draws):
+def one_fit(case, seed, version, reference_draws, update_share=None):
     """One fit of ``case`` on seed ``seed``: ``version`` a burn-in, or
-    "reference" (4 chains of ``reference_draws`` after 2000, fixed length)."""
+    "reference" (4 chains of ``reference_draws`` after 2000, fixed length).
+
+    With ``update_share``: a fit with the defaults on that share of the
+    field data, the same in every version, then ``partial_fit`` with the
+    rest, whose chains (when the reweighted draws do not do) are the ones
+    the version sets.
+    """
     prior, X, y, X_sim, theta_sim, y_sim = _data(case, seed)
+    sims = {"X_sim": X_sim, "theta_sim": theta_sim, "y_sim": y_sim}
     params = {}  # the defaults: the first pass burns in 500 steps in every fit
-    if version == "reference":
+    if version == "reference" and update_share is None:
         params = {"burn_in": 2000, "n_samples": reference_draws, "target_ess": None}
     cal = ModularBayesCalibrator(prior=prior, random_state=seed, **params)
     runs = []  # (steps, burn-in) of each run of the second pass's chains
     # The default (SHORT) as the calibrator runs it, with its fallback to
     # the full burn-in; any other version burns in that many steps (2000
-    # for the reference), without the fallback.
-    forced = {SHORT: None, "reference": 2000}.get(version, version)
+    # for the reference), without the fallback. An update's chains burn in
+    # ``burn_in``: every version of an update is forced.
+    forced = {"reference": 2000}.get(version, version)
+    if version == SHORT and update_share is None:
+        forced = None
 
     def recorded(*args, **kwargs):
-        # The second pass keeps its log density; the first pass does not.
+        # The second pass (an update) keeps its log density; a first pass not.
         second_pass = kwargs["keep_log_density"]
         if second_pass and forced is not None:
             kwargs["burn_in"] = forced
+            if version == "reference" and update_share is not None:
+                kwargs.update(n_samples=reference_draws, stopping=None)
         result = run_chains(*args, **kwargs)
         if second_pass:
             n_chains, n_draws = result.samples.shape[:2]
@@ -103,17 +126,25 @@ def one_fit(case, seed, version, reference_draws):
     with (
         threadpoolctl.threadpool_limits(1),
         warnings.catch_warnings(record=True),
-        patch.object(posterior_module, "run_chains", recorded),
-        patch.object(
-            posterior_module,
-            "_mixed",
-            posterior_module._mixed if forced is None else (lambda *args: True),
-        ),
     ):
         warnings.simplefilter("always")
-        started = time.perf_counter()
-        cal.fit(X, y, X_sim=X_sim, theta_sim=theta_sim, y_sim=y_sim)
-        seconds = time.perf_counter() - started
+        if update_share is not None:
+            k = max(2, round(update_share * len(X)))
+            cal.fit(X[:k], y[:k], **sims)
+            X, y, sims = X[k:], y[k:], {}
+        with (
+            patch.object(posterior_module, "run_chains", recorded),
+            patch.object(
+                posterior_module,
+                "_mixed",
+                posterior_module._mixed if forced is None else (lambda *args: True),
+            ),
+        ):
+            started = time.perf_counter()
+            (cal.fit if update_share is None else cal.partial_fit)(X, y, **sims)
+            seconds = time.perf_counter() - started
+    if not runs:  # an update whose reweighted draws did: nothing to compare
+        return {"estimates": None, "runs": 0, "seconds": seconds}
     chains = cal.theta_chains_
     # The second pass's runs: two when a module-2 draw left out weighed
     # something at the posterior draws (the chains ran again over every one).
@@ -153,8 +184,8 @@ def _rms_line(label, z):
     )
 
 
-def _report(case, fits, short):
-    """Print one case's lines from its fits (version: list over seeds)."""
+def _report(case, fits, short, seeds):
+    """Print one case's lines from its fits (version: list over ``seeds``)."""
     quick, long = fits[short], fits[LONG]
     reference = fits.get("reference")
     moved = max(
@@ -173,19 +204,19 @@ def _report(case, fits, short):
         ]
     )
     z = _z(quick, long)
-    for seed, (a, b) in enumerate(zip(quick, long, strict=True)):
-        far = np.max(np.abs(z[seed]))
-        if far > 3 or np.any(np.abs(sd_ratio[seed] - 1) > 0.1):
+    for i, (seed, a, b) in enumerate(zip(seeds, quick, long, strict=True)):
+        far = np.max(np.abs(z[i]))
+        if far > 3 or np.any(np.abs(sd_ratio[i] - 1) > 0.1):
             line = (
                 f"  seed {seed}: largest |z| {far:.1f}, sd ratio "
-                f"{np.array2string(sd_ratio[seed], precision=3)}, R-hat "
+                f"{np.array2string(sd_ratio[i], precision=3)}, R-hat "
                 f"{a['rhat']:.3f} ({short}) and {b['rhat']:.3f} ({LONG}), draws "
                 f"{a['draws']} and {b['draws']}"
             )
             if reference is not None:
-                ref = reference[seed]["estimates"]
+                ref = reference[i]["estimates"]
                 line += "; sd over the reference's: " + ", ".join(
-                    np.array2string(f[seed]["estimates"][0][1] / ref[0][1], precision=3)
+                    np.array2string(f[i]["estimates"][0][1] / ref[0][1], precision=3)
                     for f in (quick, long)
                 )
             print(line)
@@ -194,7 +225,8 @@ def _report(case, fits, short):
         fell_back = sum(f["fell_back"] for f in version)
         again = sum(f["runs"] - f["fell_back"] > 1 for f in version)
         print(
-            f"  burn_in={label}: R-hat > 1.01 in "
+            f"  burn_in={label}: chains ran in "
+            f"{sum(f['runs'] > 0 for f in version)}/{len(version)}, R-hat > 1.01 in "
             f"{sum(f['rhat'] > 1.01 for f in version)}/{len(version)}, chains "
             f"run again after {LONG} steps in {fell_back} and over every "
             f"module-2 draw in {again}; draws kept per "
@@ -223,6 +255,12 @@ def main(argv=None):
         "--short", type=int, default=SHORT, help="the short burn-in (the default's)"
     )
     parser.add_argument(
+        "--update",
+        type=float,
+        default=None,
+        help="fit this share of the field data, then time and compare the update",
+    )
+    parser.add_argument(
         "--reference-draws",
         type=int,
         default=0,
@@ -237,7 +275,7 @@ def main(argv=None):
     # The reference fits are the longest: first, so that the workers end together.
     jobs.sort(key=lambda job: job[2] != "reference")
     out = Parallel(n_jobs=args.n_jobs)(
-        delayed(one_fit)(*job, args.reference_draws) for job in jobs
+        delayed(one_fit)(*job, args.reference_draws, args.update) for job in jobs
     )
     fits = dict(zip(jobs, out, strict=True))
     print(
@@ -248,14 +286,21 @@ def main(argv=None):
             if args.reference_draws
             else ""
         )
+        + (
+            ""
+            if args.update is None
+            else f"; the chains of an update after a fit on {args.update:g} of "
+            "the field data"
+        )
         + f"; {time.perf_counter() - started:.0f} s on {args.n_jobs} job(s)"
     )
     for case in cases:
-        _report(
-            case,
-            {v: [fits[(case, s, v)] for s in range(args.n_seeds)] for v in versions},
-            args.short,
-        )
+        # Seeds whose update reweighted the last draws ran no chains.
+        seeds = [s for s in range(args.n_seeds) if fits[(case, s, LONG)]["runs"] > 0]
+        if len(seeds) < args.n_seeds:
+            print(f"{case}: {args.n_seeds - len(seeds)} updates ran no chains")
+        by_version = {v: [fits[(case, s, v)] for s in seeds] for v in versions}
+        _report(case, by_version, args.short, seeds)
 
 
 if __name__ == "__main__":
