@@ -458,7 +458,7 @@ def posterior_by_mcmc(
     starts, mode, cov = _chain_starts(log_posterior, n_chains, rng, earlier)
     r = starts.shape[1]
     where = (
-        "starts from the first pass's draws"
+        "starts from earlier draws (the first pass's or the last posterior's)"
         if earlier is not None
         else f"posterior mode found in {time.perf_counter() - started:.1f} s"
     )
