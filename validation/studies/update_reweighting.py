@@ -26,9 +26,18 @@ their Kish shares and ESS, the time of each version, and per quantity the
 rms z of the reweighted and of the chains' updates with the range honest
 errors give (chi-squared with one degree of freedom per seed).
 
+``--days n`` updates with the last ``n`` days instead (the fit on the days
+before), and ``--fit-days f`` fits the first ``f`` days and updates with
+the ``n`` after them (spring's first warm days move the posterior most and
+lower the weights' Kish share); ``--share s`` sets the reweighted
+version's threshold (the shipped ``REWEIGHT_SHARE`` by default), to ask
+whether draws below the shipped share are still worth their reported ESS.
+
 Usage::
 
     python -m validation.studies.update_reweighting --n-seeds 20 --n-jobs 2
+    python -m validation.studies.update_reweighting --n-seeds 20 \
+        --fit-days 120 --days 7 --share 0.2 --n-jobs 2
 
 The result is quoted in ``docs/internals.rst`` (section
 skmba.mcmc._reweight).
@@ -73,12 +82,15 @@ def _summary(cal, seconds):
     }
 
 
-def _seed(seed, reference_draws):
-    """The three versions of one seed's daily update."""
+def _seed(seed, reference_draws, days=1, share=None, fit_days=None):
+    """The three versions of one seed's update with ``days`` days after the
+    first ``fit_days`` (None: the year's last ``days``); ``share``: the
+    reweighted version's threshold (None: the shipped one)."""
     data = make_bridge_monitoring(random_state=seed)
     frame = data.frame
     X, Y = frame[["temperature"]], frame[list(data.response_names)]
-    year, day = slice(0, len(frame) - DAY), slice(len(frame) - DAY, len(frame))
+    end = len(frame) - days * DAY if fit_days is None else fit_days * DAY
+    year, day = slice(0, end), slice(end, end + days * DAY)
     cal = ModularBayesCalibrator(prior=data.prior, bin_width=2.0, random_state=seed)
     out = {}
     with threadpoolctl.threadpool_limits(1), warnings.catch_warnings():
@@ -91,15 +103,15 @@ def _seed(seed, reference_draws):
             y_sim=data.y_sim,
         )
         fitted = pickle.dumps(cal)
+        shipped = reweight_module.REWEIGHT_SHARE
         versions = {
-            "reweighted": ({}, reweight_module.REWEIGHT_SHARE),
+            "reweighted": ({}, shipped if share is None else share),
             "chains": ({}, 2.0),
             "reference": ({"n_samples": reference_draws, "target_ess": None}, 2.0),
         }
-        shipped = reweight_module.REWEIGHT_SHARE
         try:
-            for name, (params, share) in versions.items():
-                reweight_module.REWEIGHT_SHARE = share  # above one: chains
+            for name, (params, threshold) in versions.items():
+                reweight_module.REWEIGHT_SHARE = threshold  # above one: chains
                 update = pickle.loads(fitted).set_params(**params)
                 started = time.perf_counter()
                 update.partial_fit(X[day], Y[day])
@@ -158,10 +170,18 @@ def main(argv=None):
     parser.add_argument("--n-seeds", type=int, default=20)
     parser.add_argument("--n-jobs", type=int, default=1)
     parser.add_argument("--reference-draws", type=int, default=20_000)
+    parser.add_argument("--days", type=int, default=1, help="days in the update")
+    parser.add_argument(
+        "--fit-days", type=int, default=None, help="days fitted before the update"
+    )
+    parser.add_argument(
+        "--share", type=float, default=None, help="the reweighted version's threshold"
+    )
     args = parser.parse_args(argv)
     started = time.perf_counter()
     results = Parallel(n_jobs=args.n_jobs)(
-        delayed(_seed)(s, args.reference_draws) for s in range(args.n_seeds)
+        delayed(_seed)(s, args.reference_draws, args.days, args.share, args.fit_days)
+        for s in range(args.n_seeds)
     )
     reweighted = [r for r in results if r["reweighted"]["reweighted"]]
     shares = np.array([r["reweighted"]["share"] for r in reweighted])
@@ -170,14 +190,20 @@ def main(argv=None):
         name: np.array([r[name]["seconds"] for r in results])
         for name in ("reweighted", "chains", "reference")
     }
+    threshold = reweight_module.REWEIGHT_SHARE if args.share is None else args.share
     print(
-        f"bridge year, 2 degC bins, defaults; {args.n_seeds} seeds, "
+        f"bridge year, 2 degC bins, defaults, updated with {args.days} day(s) "
+        + ("at the year's end" if args.fit_days is None else f"after {args.fit_days}")
+        + f", reweighted from a Kish share of {threshold:g}; "
+        f"{args.n_seeds} seeds, "
         f"{time.perf_counter() - started:.0f} s; reference: 4 chains of "
         f"{args.reference_draws} draws"
     )
     print(
         f"reweighted: {len(reweighted)}/{len(results)} updates; Kish share "
-        f"{shares.min():.2f}-{shares.max():.2f}, ESS {ess.min():.0f}-{ess.max():.0f}"
+        f"{shares.min():.2f}-{shares.max():.2f} (sorted: "
+        f"{', '.join(f'{v:.2f}' for v in np.sort(shares))}), ESS "
+        f"{ess.min():.0f}-{ess.max():.0f}"
         if reweighted
         else f"reweighted: 0/{len(results)} updates"
     )
