@@ -8,9 +8,9 @@ parallel; this module holds what one chain does, step by step:
   Saksman & Tamminen 2001) adapt during burn-in and are frozen after it;
 * with ``independence=p > 0``, independence moves (Tierney 1994) from the
   Student-t of :mod:`skmba.mcmc._proposals`, fitted to the latest half of
-  the burn-in (after it, when several chains run, to the latest halves of
-  all their burn-ins: :meth:`Chain.share_proposal`), whose proposals a
-  block evaluates together;
+  the burn-in (after it, when several chains run, a mixture fitted to the
+  latest halves of all their burn-ins: :meth:`Chain.share_proposal`), whose
+  proposals a block evaluates together;
 * for a labelled target (a finite mixture, ``n_labels`` > 1), the sampling
   of ``(theta, k)`` with Gibbs updates of the label (Tanner & Wong 1987),
   and the fallback to the mixture when the joint chain mixes poorly.
@@ -156,7 +156,7 @@ class Chain:
         self.independence = independence
         self.rng = np.random.default_rng(seed)
         self.theta, self.logp, self.chol = start.copy(), start_value, chol
-        self.proposal = None  # the independence proposal (TProposal)
+        self.proposal = None  # the independence proposal (TProposal, TMixture)
         self.glogp = None  # its log density at theta (None: not computed)
         self.log_scale = 0.0
         self.rw_steps = 0  # random-walk steps of the burn-in (Robbins-Monro)
@@ -165,6 +165,7 @@ class Chain:
         self.means = np.zeros((n_blocks, r))
         self.m2s = np.zeros((n_blocks, r, r))
         self.accepts = np.zeros(n_blocks, dtype=int)
+        self.path = np.empty((burn_in, r))  # the burn-in's points
         self.burned = 0  # burn-in steps done
         self.frozen = False  # the kernel is fixed (burn-in over)
         self.samples = np.empty((n_samples, r))
@@ -352,6 +353,7 @@ class Chain:
                 self.rw_steps += 1
                 self.log_scale += self.rw_steps**-_GAIN_EXPONENT * (alpha - target)
             path[i] = self.theta
+        self.path[step : step + m] = path
         step += m
         self.burned = step
         self.counts[b] = m
@@ -386,9 +388,14 @@ class Chain:
             self.accepts[window],
         )
 
-    def share_proposal(self, mean, cov):
-        """The independence proposal of the draws from moments pooled over
-        the chains' burn-ins (:func:`skmba.mcmc._run.run_chains`), set between
+    def window_path(self):
+        """The points of the latest half of the burn-in so far, one per step
+        (a rejected move repeats the point before it)."""
+        return self.path[self._window().start * ADAPT_INTERVAL : self.burned]
+
+    def share_proposal(self, proposal):
+        """The independence proposal of the draws, fitted to the chains'
+        burn-ins together (:func:`skmba.mcmc._run.run_chains`), set between
         the burn-in and the first draw."""
         if not self.frozen or self.drawn or self.pending is not None:
             raise RuntimeError(
@@ -397,8 +404,8 @@ class Chain:
             )
         if self.independence <= 0.0:
             return
-        self._set_proposal(mean, cov)
-        if self.labelled and self.label_probs is None and self.proposal is not None:
+        self.proposal, self.glogp = proposal, None
+        if self.labelled and self.label_probs is None:
             # A chain whose own windows never held enough accepted moves for
             # a Student-t has no label proposal either: that of its window.
             self._set_label_proposal(

@@ -7,7 +7,8 @@ over chains); the draws are bit-identical for any ``n_jobs``. The
 convergence diagnostics of the draws are in :mod:`skmba.mcmc._diagnostics`.
 
 The chains' kernel (an adaptive random walk with, optionally, independence
-moves from a Student-t fitted to the burn-in, whose proposals a
+moves from a Student-t fitted to the burn-in, after it from a mixture of
+Student-ts fitted to all the chains' burn-ins, whose proposals a
 ``log_density.batch`` method evaluates together) is :mod:`skmba.mcmc._chain`.
 
 Examples
@@ -41,7 +42,7 @@ from skmba._core.threads import blas_threads
 from skmba._core.validation import check_count, seed_sequence
 from skmba.mcmc._chain import MIN_ADAPTIVE_BURN_IN, OPTIMAL_SCALE, Chain
 from skmba.mcmc._diagnostics import ess_bulk, split_rhat
-from skmba.mcmc._proposals import window_moments
+from skmba.mcmc._proposals import shared_proposal, window_moments
 from skmba.mcmc._target import evaluate
 
 # With a progress bar, the chains run in about this many segments, after
@@ -397,18 +398,25 @@ def _shares_proposal(states):
 
 
 def _share_proposal(states):
-    """Give every chain the independence proposal of the pooled moments of
-    the latest half of their burn-ins (each chain keeps its own when too
-    few moves were accepted there; see
-    :func:`~skmba.mcmc._proposals.window_moments`)."""
+    """Give every chain the independence proposal fitted to the latest
+    halves of their burn-ins together
+    (:func:`~skmba.mcmc._proposals.shared_proposal`); each chain keeps its
+    own when too few moves were accepted there (see
+    :func:`~skmba.mcmc._proposals.window_moments`) or their covariance is
+    not positive definite."""
     blocks = [state.window_blocks() for state in states]
     moments = window_moments(
         *(np.concatenate(parts) for parts in zip(*blocks, strict=True))
     )
     if moments is None:
         return
+    points = np.concatenate([state.window_path() for state in states])
+    try:
+        proposal = shared_proposal(points, *moments)
+    except linalg.LinAlgError:
+        return
     for state in states:
-        state.share_proposal(*moments)
+        state.share_proposal(proposal)
 
 
 def _stop(densities, states, n_jobs, blas_order):
