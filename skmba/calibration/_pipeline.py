@@ -81,7 +81,7 @@ FIRST_PASS_MCMC = {"n_chains": 2, "n_samples": 250, "burn_in": 500}
 
 #: The second pass's chains, which start from the first pass's draws, burn
 #: in this share of ``burn_in`` (250 of the default 1000): they propose from
-#: those draws' moments at once and, after the burn-in, from a Student-t
+#: those draws' moments at once and, after the burn-in, from a proposal
 #: fitted to all the chains' burn-ins together (:mod:`skmba.mcmc._run`).
 #: Measured against long chains: docs/internals.rst, section
 #: skmba.mcmc._chain. Chains whose draws would warn of R-hat run again

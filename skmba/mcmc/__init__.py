@@ -7,9 +7,11 @@ calibrator's ``theta_chains_``; the files are private:
 file                   holds
 =====================  ===================================================
 ``_chain.py``          one adaptive Metropolis-Hastings chain
-``_proposals.py``      its independence and label proposals
+``_proposals.py``      its independence and label proposals, and the
+                       mixture the chains share after the burn-in
 ``_target.py``         the target's log density, checked per chain
 ``_run.py``            ``run_chains``: several chains in joblib workers
+``_checks.py``         ``run_chains``' arguments, checked
 ``_diagnostics.py``    split R-hat and bulk ESS (Vehtari et al. 2021)
 ``_posterior.py``      a posterior's draws and moments, Laplace approximation
 =====================  ===================================================

@@ -40,7 +40,14 @@ from scipy import linalg
 from skmba._core.progress import Progress, results_as_ready
 from skmba._core.threads import blas_threads
 from skmba._core.validation import check_count, seed_sequence
-from skmba.mcmc._chain import MIN_ADAPTIVE_BURN_IN, OPTIMAL_SCALE, Chain
+from skmba.mcmc._chain import MIN_ADAPTIVE_BURN_IN, Chain
+from skmba.mcmc._checks import (
+    check_independence,
+    check_moments,
+    check_starts,
+    per_chain,
+    proposal_chols,
+)
 from skmba.mcmc._diagnostics import ess_bulk, split_rhat
 from skmba.mcmc._proposals import shared_proposal, window_moments
 from skmba.mcmc._target import evaluate
@@ -181,9 +188,11 @@ def run_chains(
         burn-in, once the latest half of the burn-in so far holds
         ``max(10, 2 r)`` accepted moves (without burn-in, never; with
         ``moments``, at the first step). After a burn-in of at least 100
-        steps, several chains share one Student-t, fitted to the latest
-        halves of all their burn-ins, so that a chain whose own window
-        missed part of the target does not propose short of it. 0.9 makes
+        steps, several chains share one proposal, fitted to the latest
+        halves of all their burn-ins (a Student-t, or a mixture of them
+        where the points cluster: :func:`~skmba.mcmc._proposals.shared_proposal`),
+        so that a chain whose own window missed part of the target does not
+        propose short of it. 0.9 makes
         successive draws of a unimodal target nearly independent, at one
         evaluation per step.
     n_jobs : int, default=None
@@ -265,13 +274,13 @@ default=None
     >>> bool(np.all(fast.ess > 1.5 * result.ess))
     True
     """
-    starts = _check_starts(starts)
+    starts = check_starts(starts)
     n_chains, r = starts.shape
-    densities = _per_chain(log_density, n_chains)
+    densities = per_chain(log_density, n_chains)
     n_samples = check_count(n_samples, "n_samples")
     burn_in = check_count(burn_in, "burn_in", minimum=0)
-    chols = _proposal_chols(proposal_cov, n_chains, r)
-    independence = _check_independence(independence)
+    chols = proposal_chols(proposal_cov, n_chains, r)
+    independence = check_independence(independence)
     start_values = _start_values(densities, starts)
     seeds = seed_sequence(random_state).spawn(n_chains)
     return _run_parallel(
@@ -284,7 +293,7 @@ default=None
         blas_order=int(blas_order),
         progress=Progress(verbose) if progress is None else progress,
         keep_log_density=bool(keep_log_density),
-        moments=_check_moments(moments, r),
+        moments=check_moments(moments, r),
         stopping=stopping,
     )
 
@@ -386,7 +395,7 @@ def _advance_in_segments(
 
 
 def _shares_proposal(states):
-    """Whether the chains' draws propose from one Student-t, fitted to the
+    """Whether the chains' draws propose from one proposal, fitted to the
     latest half of all their burn-ins (several chains with independence
     moves and a burn-in long enough to adapt)."""
     first = states[0]
@@ -477,86 +486,6 @@ def _report_chain(progress, state, before):
         )
 
 
-def _check_independence(independence):
-    """``independence`` as a float in [0, 1)."""
-    if isinstance(independence, bool | np.bool_) or not isinstance(
-        independence, int | float | np.integer | np.floating
-    ):
-        raise TypeError(
-            f"independence must be a number in [0, 1), got {independence!r}"
-        )
-    if not 0.0 <= independence < 1.0:
-        raise ValueError(
-            f"independence must be in [0, 1), got {independence!r}: it is the "
-            "probability of an independence move; some random-walk moves "
-            "must remain (0 for the random walk alone)"
-        )
-    return float(independence)
-
-
-def _check_moments(moments, r):
-    """``moments`` as a float mean (r,) and covariance (r, r), or None."""
-    if moments is None:
-        return None
-    try:
-        mean, cov = moments
-    except (TypeError, ValueError):
-        raise ValueError(
-            "moments must be a pair (mean, cov) of the target's mean and "
-            f"covariance, got {moments!r}"
-        ) from None
-    mean = np.atleast_1d(np.asarray(mean, dtype=float))
-    cov = np.atleast_2d(np.asarray(cov, dtype=float))
-    if mean.shape != (r,) or cov.shape != (r, r):
-        raise ValueError(
-            f"moments must be a mean of shape ({r},) and a covariance of shape "
-            f"({r}, {r}) for starts with {r} columns; got shapes {mean.shape} "
-            f"and {cov.shape}"
-        )
-    if not (np.all(np.isfinite(mean)) and np.all(np.isfinite(cov))):
-        raise ValueError("moments must be finite (mean and covariance).")
-    return mean, cov
-
-
-def _check_starts(starts):
-    """``starts`` as a finite float array of shape (n_chains, r)."""
-    starts = np.array(starts, dtype=float)
-    if starts.ndim != 2 or starts.shape[0] < 1 or starts.shape[1] < 1:
-        raise ValueError(
-            "starts must be a 2-D array of shape (n_chains, r) with at least one "
-            f"chain and one parameter, got shape {starts.shape}; use "
-            "starts.reshape(1, -1) for a single chain"
-        )
-    if not np.all(np.isfinite(starts)):
-        raise ValueError("starts must be finite")
-    return starts
-
-
-def _proposal_chols(proposal_cov, n_chains, r):
-    """Lower Cholesky factor of each chain's initial proposal covariance."""
-    if proposal_cov is None:
-        proposal_cov = np.broadcast_to(OPTIMAL_SCALE / r * np.eye(r), (n_chains, r, r))
-    else:
-        proposal_cov = np.asarray(proposal_cov, dtype=float)
-        if proposal_cov.shape == (r, r):
-            proposal_cov = np.broadcast_to(proposal_cov, (n_chains, r, r))
-        elif proposal_cov.shape != (n_chains, r, r):
-            raise ValueError(
-                f"proposal_cov must have shape ({r}, {r}) or ({n_chains}, {r}, {r}), "
-                f"got {proposal_cov.shape}"
-            )
-    chols = []
-    for c in range(n_chains):
-        cov = proposal_cov[c]
-        if not np.all(np.isfinite(cov)) or not np.allclose(cov, cov.T):
-            raise ValueError("proposal_cov must be finite and symmetric")
-        try:
-            chols.append(linalg.cholesky(cov, lower=True))
-        except linalg.LinAlgError:
-            raise ValueError("proposal_cov must be positive definite") from None
-    return chols
-
-
 def _start_values(densities, starts):
     """The log-density at each start, which must not be ``-inf``."""
     start_values = []
@@ -569,25 +498,6 @@ def _start_values(densities, starts):
             )
         start_values.append(value)
     return start_values
-
-
-def _per_chain(log_density, n_chains):
-    """One log-density callable per chain."""
-    if callable(log_density):
-        return [log_density] * n_chains
-    try:
-        densities = list(log_density)
-    except TypeError:
-        raise TypeError(
-            "log_density must be callable or a sequence of callables (one per "
-            f"chain), got {log_density!r}"
-        ) from None
-    if len(densities) != n_chains or not all(callable(f) for f in densities):
-        raise TypeError(
-            f"log_density must be callable or a sequence of {n_chains} callables "
-            f"(one per row of starts), got {len(densities)} entries"
-        )
-    return densities
 
 
 def _advance(log_density, state, until, blas_order=0, n_jobs=None):
