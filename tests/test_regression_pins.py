@@ -3,24 +3,30 @@
 Refactorings must not change the numbers: an r = 1 quadrature fit, an
 r = 2 MCMC fit and a three-response sensor design are pinned to 1e-12
 (relative) against the values stored in
-``tests/data/regression_pins_<kernel>.npz``.
+``tests/data/regression_pins_<kernel>-<vector level>.npz``.
 
-Bits are only reproducible for one BLAS kernel: OpenBLAS picks its kernel by
-processor (or by ``OPENBLAS_CORETYPE``), and a last-bit difference of a
-Cholesky factor grows through an optimiser or a Metropolis-Hastings chain
-(measured between the Haswell and SkylakeX kernels on one machine: 1e-7
-relative on the quadrature fit, 2e-5 on the MCMC draws, 2e-3 on the
-designer's scores). So there is one pin file per kernel, named by the
-kernels threadpoolctl reports. A change that is meant to move the numbers
-(a new default, another random number scheme) regenerates the files
-deliberately, for every kernel the machine can run, and says why in its
-commit message and in CHANGELOG.md::
+Bits are only reproducible for one BLAS kernel on one kind of processor:
+OpenBLAS picks its kernel by processor (or by ``OPENBLAS_CORETYPE``), and a
+last-bit difference of a Cholesky factor grows through an optimiser or a
+Metropolis-Hastings chain (measured between the Haswell and SkylakeX
+kernels on one machine: 1e-7 relative on the quadrature fit, 2e-5 on the
+MCMC draws, 2e-3 on the designer's scores). The same Haswell kernel also
+gave other bits on a processor without AVX-512 (an AMD EPYC of family 25,
+same numpy, scipy and scikit-learn: 8e-9 relative on the quadrature fit's
+theta mean) than on the AVX-512 machine the first files came from. So
+there is one pin file per kernel and vector level, named by the kernels
+threadpoolctl reports and by the processor's widest vector extension
+(:func:`machine_key`, e.g. ``Haswell-avx512``). A change that is meant to
+move the numbers (a new default, another random number scheme) regenerates
+the files deliberately, for every kernel the machine can run, and says why
+in its commit message and in CHANGELOG.md::
 
     python tests/test_regression_pins.py --update
-    OPENBLAS_CORETYPE=Haswell python tests/test_regression_pins.py --update
+    OPENBLAS_CORETYPE=SkylakeX python tests/test_regression_pins.py --update
 
-On a machine whose kernel has no pin file the test fails and says so: add
-the file with ``--update`` from a commit whose pins pass on another kernel.
+(the second only where the processor has AVX-512). On a machine whose key
+has no pin file the test fails and says so: add the file with ``--update``
+from a commit whose pins pass on another machine.
 """
 
 import sys
@@ -48,9 +54,27 @@ def blas_kernel():
     return "+".join(sorted(kinds)) or "none"
 
 
-def pins_path(kernel=None):
-    """The pin file of a BLAS kernel (by default the running one)."""
-    return PINS_DIR / f"regression_pins_{kernel or blas_kernel()}.npz"
+def vector_level():
+    """The processor's widest vector extension numpy sees: ``"avx512"``,
+    ``"avx2"`` or ``"other"``."""
+    try:
+        from numpy._core._multiarray_umath import __cpu_features__
+    except ImportError:  # numpy < 2
+        from numpy.core._multiarray_umath import __cpu_features__
+    for level, feature in (("avx512", "AVX512F"), ("avx2", "AVX2")):
+        if __cpu_features__.get(feature):
+            return level
+    return "other"
+
+
+def machine_key():
+    """The BLAS kernels and the vector level, e.g. ``"Haswell-avx2"``."""
+    return f"{blas_kernel()}-{vector_level()}"
+
+
+def pins_path(key=None):
+    """The pin file of a machine key (by default the running one)."""
+    return PINS_DIR / f"regression_pins_{key or machine_key()}.npz"
 
 
 def _quiet(fit, *args, **kwargs):
@@ -134,9 +158,9 @@ def test_results_are_pinned(case):
             for p in PINS_DIR.glob("regression_pins_*.npz")
         )
         pytest.fail(
-            f"no pins for the BLAS kernel {blas_kernel()!r} (pins exist for "
+            f"no pins for this machine, {machine_key()!r} (pins exist for "
             f"{known}): run 'python tests/test_regression_pins.py --update' on a "
-            "commit whose pins pass on one of those kernels, and commit the file"
+            "commit whose pins pass on one of those machines, and commit the file"
         )
     stored = np.load(path)
     computed = CASES[case]()
