@@ -58,7 +58,14 @@ def test_a_day_reweights_the_last_draws_as_chains_would(eleven_months, monkeypat
             for j in range(chains.shape[-1])
         ]
     ).min(axis=1)
-    assert 0.8 * worth.min() <= len(cal.theta_nodes_) <= worth.min()
+    # every chain thinned by a whole step to at most ESS / chains draws, so
+    # at least ESS * draws / (draws + ESS / chains) nodes: on an AMD EPYC
+    # an ESS of 1,256 (314 per chain of 1,000) gave a step of 4 and 1,000
+    # nodes, 0.80 ESS, above that bound's 0.76
+    n_chains, n_draws = chains.shape[:2]
+    per_chain = np.ceil(worth.min() / n_chains)
+    lowest = worth.min() * n_draws / (n_draws + per_chain)
+    assert lowest <= len(cal.theta_nodes_) <= worth.min()
     assert cal.theta_weights_.sum() == pytest.approx(1.0)
     # ESS: the run's (at most the nodes) times the Kish share
     share = 1.0 / np.sum(cal.theta_weights_**2) / len(cal.theta_weights_)
