@@ -11,11 +11,14 @@ last-bit difference of a Cholesky factor grows through an optimiser or a
 Metropolis-Hastings chain (measured between the Haswell and SkylakeX
 kernels on one machine: 1e-7 relative on the quadrature fit, 2e-5 on the
 MCMC draws, 2e-3 on the designer's scores). The same Haswell kernel also
-gave other bits on a processor without AVX-512 (an AMD EPYC of family 25,
-same numpy, scipy and scikit-learn: 8e-9 relative on the quadrature fit's
-theta mean) than on the AVX-512 machine the first files came from. So
-there is one pin file per kernel and vector level, named by the kernels
-threadpoolctl reports and by the processor's widest vector extension
+gave other bits on a processor without AVX-512 (an AMD EPYC of family 25:
+7.7e-9 relative on the quadrature fit's theta mean, with numpy 2.4.5 and
+2.4.6, scipy 1.17.0 and 1.17.1, scikit-learn 1.8 and 1.9.1 alike) than
+the AVX-512 machine the first files came from. There numpy's float64
+``exp`` and ``log`` equal glibc's to the bit (200,000 values), while numpy
+has its own AVX-512 loops for them: the likely cause. So there is one pin
+file per kernel and vector level, named by the kernels threadpoolctl
+reports and by the processor's widest vector extension
 (:func:`machine_key`, e.g. ``Haswell-avx512``). A change that is meant to
 move the numbers (a new default, another random number scheme) regenerates
 the files deliberately, for every kernel the machine can run, and says why
