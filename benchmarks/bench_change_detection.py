@@ -34,6 +34,11 @@ import warnings
 
 import numpy as np
 
+try:  # run as a script (python benchmarks/bench_x.py) or as a module
+    from _machine import machine_report
+except ImportError:
+    from benchmarks._machine import machine_report
+
 CONFIGS = {
     "defaults": {},
     "bin_width=0.5": {"bin_width": 0.5},
@@ -106,10 +111,7 @@ def main():
     if args.one:
         _one(args.one)
         return
-    print(
-        f"CPUs: {os.cpu_count()}; OMP/OPENBLAS threads: "
-        f"{os.environ.get('OMP_NUM_THREADS')}/{os.environ.get('OPENBLAS_NUM_THREADS')}"
-    )
+    print(machine_report(), flush=True)
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     env = {**os.environ, "PYTHONPATH": root}
     for name in [args.only] if args.only else CONFIGS:

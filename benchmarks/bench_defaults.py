@@ -53,6 +53,11 @@ import sys
 import time
 import warnings
 
+try:  # run as a script (python benchmarks/bench_x.py) or as a module
+    from _machine import machine_report
+except ImportError:
+    from benchmarks._machine import machine_report
+
 TWO, ONE, DESIGN = "two parameters", "one parameter", "sensor design"
 #: name: (set-up, estimator parameters); each set-up's defaults first.
 CONFIGS = {
@@ -215,10 +220,7 @@ def main():
     if args.one:
         _one(args.one)
         return
-    threads = {
-        k: os.environ.get(k) for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS")
-    }
-    print(f"CPUs: {os.cpu_count()}; BLAS threads from the environment: {threads}")
+    print(machine_report(), flush=True)
     results = {}
     for name in CONFIGS:
         run = subprocess.run(

@@ -27,13 +27,17 @@ benchmarks/bench_design_scaling.py`` (about 8 minutes on two cores).
 import argparse
 import io
 import json
-import os
 import re
 import subprocess
 import sys
 import time
 import warnings
 from contextlib import redirect_stderr
+
+try:  # run as a script (python benchmarks/bench_x.py) or as a module
+    from _machine import machine_report
+except ImportError:
+    from benchmarks._machine import machine_report
 
 GAUGES = ["SA", "SB", "SC", "SD", "SE", "SF", "SG", "SH", "SI"]
 #: The designer's ``verbose=1`` lines that end a step, and the step's name.
@@ -95,11 +99,8 @@ def main():
         _one(args.one, args.n_mc, args.n_jobs)
         return
     sizes = [int(n) for n in args.n_design.split(",")]
-    print(
-        f"CPUs: {os.cpu_count()}, n_jobs={args.n_jobs}, OMP_NUM_THREADS="
-        f"{os.environ.get('OMP_NUM_THREADS')}, OPENBLAS_NUM_THREADS="
-        f"{os.environ.get('OPENBLAS_NUM_THREADS')}"
-    )
+    print(machine_report())
+    print(f"n_jobs={args.n_jobs}")
     print(f"exhaustive FPA, 9 gauges, 511 subsets x {args.n_mc} replicates, defaults")
     header = "n_design   cold s   warm s   step 1   phase 1   phase 2   best subset"
     print(header)

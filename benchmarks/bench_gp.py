@@ -73,10 +73,15 @@ from sklearn.metrics import r2_score
 
 import skmba.gp._search
 from skmba import MultiResponseGP
-from skmba._core.threads import blas_threads, describe_threads
+from skmba._core.threads import blas_threads
 from skmba.gp._likelihood import NoiseFreeLikelihood
 from skmba.gp._search import correlation
 from skmba.kernels import Gauss
+
+try:  # run as a script (python benchmarks/bench_x.py) or as a module
+    from _machine import machine_report
+except ImportError:
+    from benchmarks._machine import machine_report
 
 
 def responses(X, q):
@@ -431,7 +436,7 @@ def main():
     if args.one:
         _one(args.one, args.n)
         return
-    print(describe_threads())
+    print(machine_report(), flush=True)
     if args.defaults:
         defaults_report(
             *((1200, (200, 400)) if args.quick else (5000, (500, 1000, 2000)))

@@ -29,7 +29,6 @@ cores); ``--only NAME`` runs one configuration.
 
 import argparse
 import json
-import os
 import resource
 import subprocess
 import sys
@@ -37,6 +36,11 @@ import time
 import warnings
 
 import numpy as np
+
+try:  # run as a script (python benchmarks/bench_x.py) or as a module
+    from _machine import machine_report
+except ImportError:
+    from benchmarks._machine import machine_report
 
 CONFIGS = {
     "defaults, bin_width=1": {"bin_width": 1.0},
@@ -114,10 +118,7 @@ def main():
     if args.one:
         _one(args.one, args.skip_warm)
         return
-    print(
-        f"CPUs: {os.cpu_count()}; OMP/OPENBLAS threads: "
-        f"{os.environ.get('OMP_NUM_THREADS')}/{os.environ.get('OPENBLAS_NUM_THREADS')}"
-    )
+    print(machine_report(), flush=True)
     values, message = _exact_estimate()
     print(f"exact means (no bins): {values} values; fit says: {message[:200]}...")
     for name in [args.only] if args.only else CONFIGS:

@@ -92,9 +92,13 @@ import numpy as np
 import threadpoolctl
 
 from benchmarks.bench_calibration import fit_cantilever
-from skmba._core.threads import describe_threads
 from skmba.datasets import make_cantilever
 from skmba.mcmc._diagnostics import ess_bulk, split_rhat
+
+try:  # run as a script (python benchmarks/bench_x.py) or as a module
+    from _machine import machine_report
+except ImportError:
+    from benchmarks._machine import machine_report
 
 try:
     import surmise
@@ -342,7 +346,7 @@ def main():
             "Install it with `pip install surmise` and run again."
         )
         return
-    print(describe_threads())
+    print(machine_report(), flush=True)
     print(f"surmise {getattr(surmise, '__version__', '?')}")
     sizes = QUICK if args.quick else FULL
     data = make_cantilever(**sizes["data"], parameters=("E", "I"), random_state=0)

@@ -42,6 +42,11 @@ from scipy import stats
 from skmba import ModularBayesCalibrator, PreposteriorDesigner
 from skmba.datasets import make_truss_bridge
 
+try:  # run as a script (python benchmarks/bench_x.py) or as a module
+    from _machine import machine_report
+except ImportError:
+    from benchmarks._machine import machine_report
+
 GAUGES = ["SA", "SB", "SC", "SD", "SE", "SF", "SG", "SH", "SI"]
 
 
@@ -73,7 +78,8 @@ def main():
         "--no-serial", action="store_true", help="skip (b), the n_jobs=1 run"
     )
     args = parser.parse_args()
-    print(f"CPUs: {os.cpu_count()}, n_jobs={args.n_jobs}")
+    print(machine_report())
+    print(f"n_jobs={args.n_jobs}")
     started = time.perf_counter()
     Parallel(n_jobs=args.n_jobs)(
         delayed(importlib.import_module)("skmba") for _ in range(os.cpu_count())

@@ -29,7 +29,12 @@ from threadpoolctl import threadpool_limits
 
 import skmba.gp._estimator
 from skmba import MultiResponseGP
-from skmba._core.threads import SMALL_ORDER, describe_threads, process_threads
+from skmba._core.threads import SMALL_ORDER, process_threads
+
+try:  # run as a script (python benchmarks/bench_x.py) or as a module
+    from _machine import machine_report
+except ImportError:
+    from benchmarks._machine import machine_report
 
 
 def best_time(fn, repeat=3):
@@ -168,7 +173,7 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="smaller sizes")
     args = parser.parse_args(argv)
-    print(describe_threads())
+    print(machine_report(), flush=True)
     if args.quick:
         crossover(sorted({50, 200, 600, SMALL_ORDER}))
         gp_section([200, 500], [500])
