@@ -38,11 +38,12 @@ def test_the_default_second_pass_samples_the_posterior_of_a_stuck_first_pass():
     # and 0.99 on an AVX-512 machine, 1.05 and 0.99 on an AMD EPYC without).
     # Four, not three: over the study's 120 fits these z have an rms of
     # 0.96-1.14 (docs/internals.rst), at which one of 8 quantities beyond 3
-    # has a chance of 2-7 %, and each kind of processor draws another chain
-    # path (at most 1.7 on the first machine, 3.16 on the EPYC: theta_1's
-    # 97.5 % point, 0.19 posterior sd above the reference's, with all four
-    # chains above it); beyond 4 the chance is 0.05-0.4 %. Stuck chains
-    # (sds 0.39-0.76 of the reference's here before) fail both bounds.
+    # has a chance of 2-7 % (were they independent), and each kind of
+    # processor draws another chain path (at most 1.7 on the first machine,
+    # 3.16 on the EPYC: the first parameter's 97.5 % point, 0.19 posterior
+    # sd above the reference's, with all four chains above it); beyond 4
+    # the chance is 0.05-0.4 %. Stuck chains (sds 0.39-0.76 of the
+    # reference's here before) fail both bounds.
     z = (values - ref_values) / np.hypot(errors, ref_errors)
     assert np.all(np.abs(z) < 4)
     ratio = values[1] / ref_values[1]
