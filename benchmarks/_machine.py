@@ -5,8 +5,9 @@ times apart, and two kinds four to five times apart (the 4.7.3 default
 fit: 7.7 s warm on one, 29-40 s over two runs on an AMD EPYC without
 AVX-512). A time is only read against a target together with what the
 machine does per unit of the work behind it, so :func:`machine_report`
-gives, besides the processor and the BLAS threads (:func:`skmba._core.threads.describe_threads`), three probes,
-each the best of :data:`REPEATS` warm runs:
+gives, besides the processor and the BLAS threads
+(:func:`skmba._core.threads.describe_threads`), three probes, each the
+best of :data:`REPEATS` warm runs:
 
 - **Python**: ``sum(range(10**6))``, the interpreter's speed (per-item
   loops, argument checks, the chains' bookkeeping);
