@@ -32,7 +32,7 @@ REPEATS = 5
 
 
 def _processor():
-    """The processor's model name and the vector extensions numpy sees."""
+    """The processor's model name and number of CPUs."""
     name = platform.processor() or platform.machine()
     try:
         with open("/proc/cpuinfo") as f:
@@ -42,26 +42,24 @@ def _processor():
                     break
     except OSError:
         pass
-    try:
-        from numpy._core._multiarray_umath import __cpu_features__
-    except ImportError:  # numpy < 2
-        from numpy.core._multiarray_umath import __cpu_features__
-    vectors = [f for f in ("AVX512F", "AVX2") if __cpu_features__.get(f)]
-    return f"processor: {name}; {os.cpu_count()} CPUs; vector extensions: " + (
-        ", ".join(vectors) or "neither AVX2 nor AVX-512"
-    )
+    return f"processor: {name}; {os.cpu_count()} CPUs"
 
 
-def _best(work):
-    """The shortest of :data:`REPEATS` timed runs of ``work``, after one
-    untimed run, in milliseconds."""
-    work()
-    times = []
-    for _ in range(REPEATS):
+def best_time(fn, repeat=3):
+    """Best wall time of ``repeat`` calls, and the last result."""
+    best, out = float("inf"), None
+    for _ in range(repeat):
         start = time.perf_counter()
-        work()
-        times.append(time.perf_counter() - start)
-    return 1e3 * min(times)
+        out = fn()
+        best = min(best, time.perf_counter() - start)
+    return best, out
+
+
+def _best_ms(work):
+    """The best of :data:`REPEATS` timed runs of ``work`` after an untimed
+    one, in milliseconds."""
+    work()
+    return 1e3 * best_time(work, REPEATS)[0]
 
 
 def speed_probes():
@@ -75,16 +73,18 @@ def speed_probes():
     large = rng.standard_normal((2000, 2000))
     large = large @ large.T + 2000 * np.eye(2000)
     with threadpool_limits(limits=1, user_api="blas"):
-        small_ms = _best(lambda: np.linalg.cholesky(small))
+        small_ms = _best_ms(lambda: np.linalg.cholesky(small))
     return {
-        "python": _best(lambda: sum(range(10**6))),
+        "python": _best_ms(lambda: sum(range(10**6))),
         "small LAPACK": small_ms,
-        "large LAPACK": _best(lambda: np.linalg.cholesky(large)),
+        "large LAPACK": _best_ms(lambda: np.linalg.cholesky(large)),
     }
 
 
 def machine_report():
-    """Three lines: the processor, the BLAS threads, the speed probes."""
+    """Three lines: the processor, its vector extensions and the BLAS
+    threads (:func:`~skmba._core.threads.describe_threads`), the speed
+    probes."""
     from skmba._core.threads import describe_threads
 
     probes = speed_probes()

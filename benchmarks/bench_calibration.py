@@ -92,6 +92,11 @@ from skmba._core.linalg import LOG_2PI
 from skmba._core.regression import regression_basis
 from skmba.datasets import make_cantilever
 
+try:  # run as a script (python benchmarks/bench_x.py) or as a module
+    from _machine import machine_report
+except ImportError:
+    from benchmarks._machine import machine_report
+
 THESIS_TAMAR_HOURS = 6.38
 N_THETAS = 50
 REL_TOL = 1e-8
@@ -137,15 +142,7 @@ def blas_threads():
 
 
 def print_environment():
-    print(f"os.cpu_count(): {os.cpu_count()}")
-    blas = [i for i in threadpoolctl.threadpool_info() if i["user_api"] == "blas"]
-    if not blas:
-        print("BLAS: none reported by threadpoolctl")
-    for info in blas:
-        print(
-            f"BLAS: {info['internal_api']} {info.get('version')}, "
-            f"num_threads={info['num_threads']} ({info['prefix']})"
-        )
+    print(machine_report())
     print()
 
 

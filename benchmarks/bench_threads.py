@@ -19,7 +19,6 @@ run). What to look for: the ratios of (1) and (2) above 1 from
 """
 
 import argparse
-import time
 import warnings
 
 import numpy as np
@@ -32,19 +31,9 @@ from skmba import MultiResponseGP
 from skmba._core.threads import SMALL_ORDER, process_threads
 
 try:  # run as a script (python benchmarks/bench_x.py) or as a module
-    from _machine import machine_report
+    from _machine import best_time, machine_report
 except ImportError:
-    from benchmarks._machine import machine_report
-
-
-def best_time(fn, repeat=3):
-    """Best wall time of ``repeat`` calls, and the last result."""
-    best, out = np.inf, None
-    for _ in range(repeat):
-        start = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - start)
-    return best, out
+    from benchmarks._machine import best_time, machine_report
 
 
 def crossover(orders):

@@ -19,7 +19,8 @@ the AVX-512 machine the first files came from. There numpy's float64
 has its own AVX-512 loops for them: the likely cause. So there is one pin
 file per kernel and vector level, named by the kernels threadpoolctl
 reports and by the processor's widest vector extension
-(:func:`machine_key`, e.g. ``Haswell-avx512``). A change that is meant to
+(:func:`machine_key`, e.g. ``Haswell-avx512``; the level from
+:func:`skmba._core.threads.vector_level`). A change that is meant to
 move the numbers (a new default, another random number scheme) regenerates
 the files deliberately, for every kernel the machine can run, and says why
 in its commit message and in CHANGELOG.md::
@@ -41,6 +42,7 @@ import pytest
 from threadpoolctl import threadpool_info
 
 from skmba import ModularBayesCalibrator, PreposteriorDesigner
+from skmba._core.threads import vector_level
 from skmba.datasets import make_cantilever
 
 PINS_DIR = Path(__file__).parent / "data"
@@ -55,19 +57,6 @@ def blas_kernel():
         if info["user_api"] == "blas"
     }
     return "+".join(sorted(kinds)) or "none"
-
-
-def vector_level():
-    """The processor's widest vector extension numpy sees: ``"avx512"``,
-    ``"avx2"`` or ``"other"``."""
-    try:
-        from numpy._core._multiarray_umath import __cpu_features__
-    except ImportError:  # numpy < 2
-        from numpy.core._multiarray_umath import __cpu_features__
-    for level, feature in (("avx512", "AVX512F"), ("avx2", "AVX2")):
-        if __cpu_features__.get(feature):
-            return level
-    return "other"
 
 
 def machine_key():

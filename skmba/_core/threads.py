@@ -134,6 +134,29 @@ def _controller(pid):
     return ThreadpoolController()
 
 
+def vector_level():
+    """The processor's widest vector extension that numpy sees:
+    ``"avx512"``, ``"avx2"`` or ``"other"``.
+
+    It decides numpy's own loops (with AVX-512 numpy has its own float64
+    ``exp`` and ``log``; without, glibc's), so results differ in their last
+    bits between levels as between BLAS kernels.
+
+    Examples
+    --------
+    >>> vector_level() in {"avx512", "avx2", "other"}
+    True
+    """
+    try:
+        from numpy._core._multiarray_umath import __cpu_features__
+    except ImportError:  # numpy < 2
+        from numpy.core._multiarray_umath import __cpu_features__
+    for level, feature in (("avx512", "AVX512F"), ("avx2", "AVX2")):
+        if __cpu_features__.get(feature):
+            return level
+    return "other"
+
+
 def describe_threads():
     """One line on the machine's cores and the BLAS libraries' threads.
 
@@ -159,7 +182,7 @@ def describe_threads():
         if k in os.environ
     }
     return (
-        f"cores: {cpu_count()}; BLAS: {libs or 'none found'}; "
+        f"cores: {cpu_count()} ({vector_level()}); BLAS: {libs or 'none found'}; "
         f"skmba: {SMALL_ORDER}+ order work on {process_threads()} threads, "
         f"smaller on 1; env {env or '{}'}"
     )
