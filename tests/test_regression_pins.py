@@ -28,9 +28,13 @@ in its commit message and in CHANGELOG.md::
     python tests/test_regression_pins.py --update
     OPENBLAS_CORETYPE=SkylakeX python tests/test_regression_pins.py --update
 
-(the second only where the processor has AVX-512). On a machine whose key
-has no pin file the test fails and says so: add the file with ``--update``
-from a commit whose pins pass on another machine.
+(the second only where the processor has AVX-512), and deletes (``git rm``)
+the files of the kinds it cannot make, which are stale. A machine whose
+kind has no pin file compares its results with every other kind's file at
+:data:`CROSS_RTOL`, ten times the largest difference measured between
+kinds, and warns: that still catches a changed chain path, optimiser stop
+or module-2 integral, but not a change below that level. Add the kind's
+own file with ``--update`` on a commit that passes there.
 """
 
 import sys
@@ -47,6 +51,16 @@ from skmba.datasets import make_cantilever
 
 PINS_DIR = Path(__file__).parent / "data"
 RTOL = 1e-12
+#: Tolerances (relative, as ``RTOL``: ``|a - b| <= rtol (|b| + max|b|)``)
+#: against the files of other machine kinds, used where this kind has none:
+#: ten times the largest difference between the three files at 16a49b5
+#: (Haswell-avx2, Haswell-avx512, SkylakeX-avx512; the same numerics):
+#: 9.1e-5 on the quadrature fit's theta_cov (its other arrays 4.4e-7 or
+#: less), 1.1e-5 on the MCMC fit (its discrepancy's mean), 2.5e-5 on the
+#: designer (its preposterior covariance). A new chain path moves the MCMC
+#: draws by about a posterior sd, 5.5e-2 of their largest value here (the
+#: quadrature's draws: 2.2e-3).
+CROSS_RTOL = {"r1_quadrature": 1e-3, "r2_mcmc": 2e-4, "designer": 3e-4}
 
 
 def blas_kernel():
@@ -141,28 +155,71 @@ CASES = {
 }
 
 
-@pytest.mark.parametrize("case", list(CASES))
-def test_results_are_pinned(case):
-    path = pins_path()
-    if not path.exists():
-        known = sorted(
-            p.stem.removeprefix("regression_pins_")
-            for p in PINS_DIR.glob("regression_pins_*.npz")
-        )
-        pytest.fail(
-            f"no pins for this machine, {machine_key()!r} (pins exist for "
-            f"{known}): run 'python tests/test_regression_pins.py --update' on a "
-            "commit whose pins pass on one of those machines, and commit the file"
-        )
-    stored = np.load(path)
-    computed = CASES[case]()
+def stored_pins():
+    """The pin files to compare with and their tolerance: this machine kind's
+    own at :data:`RTOL`, or, where it has none, every other kind's at
+    :data:`CROSS_RTOL` (None)."""
+    own = pins_path()
+    if own.exists():
+        return {machine_key(): own}, RTOL
+    others = {
+        p.stem.removeprefix("regression_pins_"): p
+        for p in sorted(PINS_DIR.glob("regression_pins_*.npz"))
+    }
+    if not others:
+        pytest.fail(f"no pin files in {PINS_DIR}")
+    warnings.warn(
+        f"no regression pins for this machine kind, {machine_key()!r}: compared "
+        f"with {sorted(others)} at the cross-machine tolerance instead of "
+        f"{RTOL:g}; run 'python tests/test_regression_pins.py --update' on a "
+        "commit that passes here and commit the file",
+        UserWarning,
+        stacklevel=2,
+    )
+    return others, None
+
+
+def assert_pinned(computed, stored, case, rtol):
+    """Every array of ``case`` in ``stored`` (an opened pin file) equals the
+    computed one to ``rtol``, relative to the element and the array's
+    largest value."""
     assert sorted(computed) == sorted(k for k in stored.files if k.startswith(case))
     for key, value in computed.items():
         expected = stored[key]
         scale = np.max(np.abs(expected))
         np.testing.assert_allclose(
-            value, expected, rtol=RTOL, atol=RTOL * scale, err_msg=key
+            value, expected, rtol=rtol, atol=rtol * scale, err_msg=key
         )
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_results_are_pinned(case):
+    files, rtol = stored_pins()
+    computed = CASES[case]()
+    for path in files.values():
+        with np.load(path) as stored:
+            assert_pinned(computed, stored, case, rtol or CROSS_RTOL[case])
+
+
+def test_the_cross_machine_tolerance_is_ten_times_the_kinds_differences():
+    """The files of different kinds, all made from one commit, agree within
+    a tenth of :data:`CROSS_RTOL` (a stale file, left by a change that moved
+    the numbers, fails here)."""
+    paths = sorted(PINS_DIR.glob("regression_pins_*.npz"))
+    if len(paths) < 2:
+        pytest.skip("one pin file: no kinds to compare")
+    largest = dict.fromkeys(CASES, 0.0)
+    for i, first in enumerate(paths):
+        for second in paths[i + 1 :]:
+            with np.load(first) as a, np.load(second) as b:
+                assert sorted(a.files) == sorted(b.files)
+                for key in a.files:
+                    x, y = a[key], b[key]
+                    gap = np.abs(x - y) / (np.abs(y) + np.max(np.abs(y)))
+                    case = key.split("/")[0]
+                    largest[case] = max(largest[case], float(np.max(gap)))
+    for case, gap in largest.items():
+        assert gap <= CROSS_RTOL[case] / 10, (case, gap)
 
 
 if __name__ == "__main__":
