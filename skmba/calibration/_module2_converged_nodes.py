@@ -49,6 +49,7 @@ from skmba.calibration._module2_converged import (
     ConvergedIntegral,
     MonteCarloError,
     adapted,
+    influence_errors,
     kish_share,
     marginal_laplace,
     mixture_draws,
@@ -252,11 +253,9 @@ def node_errors(theta, w, summaries):
     divided by the density there, from the weighted quantiles
     ``p / 2`` either side."""
     mean, sd = summaries[0], summaries[1]
-    w2 = (w**2)[:, None]
     centred = theta - mean
-    se_mean = np.sqrt(np.sum(w2 * centred**2, axis=0))
-    spread = np.sum(w2 * (centred**2 - sd**2) ** 2, axis=0)
-    se_sd = np.sqrt(spread) / (2.0 * np.maximum(sd, 1e-300))
+    se_mean = influence_errors(w, centred)
+    se_sd = influence_errors(w, centred**2 - sd**2) / (2.0 * np.maximum(sd, 1e-300))
     ends = []
     for p, q in zip(INTERVAL, summaries[2:], strict=True):
         h = min(p, 1 - p) / 2
@@ -264,7 +263,7 @@ def node_errors(theta, w, summaries):
             [np.diff(weighted_quantiles(t, w, [p - h, p + h]))[0] for t in theta.T]
         )
         below = (theta <= q).astype(float) - p
-        ends.append(np.sqrt(np.sum(w2 * below**2, axis=0)) * width / (2 * h))
+        ends.append(influence_errors(w, below) * width / (2 * h))
     return np.vstack([se_mean, se_sd, *ends])
 
 

@@ -79,12 +79,31 @@ class ThetaGrid:
         """The trapezoid rule of the increasing ``nodes``."""
         nodes = np.asarray(nodes, dtype=float)
         support = support or tuple(prior.bounds(0.9999)[0])
-        trapezoid = 0.5 * (
-            np.diff(nodes, prepend=nodes[0]) + np.diff(nodes, append=nodes[-1])
-        )
         with np.errstate(divide="ignore"):
             log_prior = np.ravel(prior.logpdf(nodes[:, None]))
-        return cls(nodes, np.log(trapezoid) + log_prior, support, float(step))
+        return cls(nodes, np.log(_trapezoid(nodes)) + log_prior, support, float(step))
+
+    @property
+    def spacings(self):
+        """The trapezoid rule's weight of each node: a node's posterior
+        weight over it is the density there."""
+        return _trapezoid(self.nodes)
+
+    def cdfs(self, P):
+        """The CDFs at the nodes (J, K) of the trapezoid posteriors whose
+        node weights are the columns of ``P`` (J, K)."""
+        f = P / self.spacings[:, None]
+        steps = 0.5 * (f[1:] + f[:-1]) * np.diff(self.nodes)[:, None]
+        cdf = np.vstack([np.zeros((1, P.shape[1])), np.cumsum(steps, axis=0)])
+        return cdf / cdf[-1]
+
+    def at(self, x, rows):
+        """The rows (J, ...) linearly interpolated at ``x`` (held at the
+        ends beyond them), as :func:`numpy.interp` does for one column."""
+        t = self.nodes
+        i = min(max(int(np.searchsorted(t, x)), 1), len(t) - 1)
+        frac = min(max((x - t[i - 1]) / (t[i] - t[i - 1]), 0.0), 1.0)
+        return rows[i - 1] + frac * (rows[i] - rows[i - 1])
 
     @classmethod
     def around(cls, prior, mean, sd, half_width, spacing):
@@ -124,6 +143,11 @@ class ThetaGrid:
         below, above = _clipped(below, lo, np.inf, h), _clipped(above, -np.inf, hi, h)
         nodes = np.r_[below, t, above]
         return self.build(prior, nodes, h, self.support), len(below), len(above)
+
+
+def _trapezoid(nodes):
+    """The trapezoid rule's weights of the increasing ``nodes``."""
+    return 0.5 * (np.diff(nodes, prepend=nodes[0]) + np.diff(nodes, append=nodes[-1]))
 
 
 def _clipped(points, lo, hi, step):
@@ -244,10 +268,7 @@ def grid_problems(A, grid, weights, span=1):
 
 def density_cdf(w, grid):
     """The CDF at the nodes of the trapezoid posterior with weights ``w``."""
-    t = grid.nodes
-    f = w / (0.5 * (np.diff(t, prepend=t[0]) + np.diff(t, append=t[-1])))
-    cdf = np.concatenate([[0.0], np.cumsum(0.5 * (f[1:] + f[:-1]) * np.diff(t))])
-    return cdf / cdf[-1]
+    return grid.cdfs(w[:, None])[:, 0]
 
 
 def grid_summaries(log_joint, grid):

@@ -2,6 +2,7 @@
 (skmba.calibration._module2_converged, ``discrepancy_tol``)."""
 
 import warnings
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -155,6 +156,34 @@ def test_trapezoid_grid_integrates_a_gaussian():
     assert wider.step == grid.step and below > 0 and above == 0
     np.testing.assert_array_equal(wider.nodes[below:], grid.nodes)
     np.testing.assert_allclose(np.diff(wider.nodes), grid.step, rtol=1e-9)
+
+
+def test_errors_over_the_draws_match_their_spread_over_replicates():
+    """The delta-method errors of the four summaries against their spread
+    over 300 replicates of 256 importance draws, on a mixture whose answer
+    is known: phi ~ N(0, 1) drawn from a Student-t with 4 degrees of freedom
+    (weights p / q), theta | phi ~ N(phi, 0.5^2) on the grid, so theta ~
+    N(0, 1.25). Each summary's rms z is within 0.85-1.15 (its sampling
+    error over 300 replicates is about 0.04; measured 0.99-1.08 here, and
+    0.93-1.08 over seeds 0-3). Four blocks' spread, the estimate used
+    before, gives 1.6-3.1 on this mixture (400 replicates of four blocks of
+    64 draws: a standard error from four values)."""
+    prior = check_prior([stats.uniform(-50, 100)])
+    grid = ThetaGrid.build(prior, np.linspace(-9.0, 9.0, 361), 0.05)
+    truth = np.r_[0.0, np.sqrt(1.25), stats.norm(0, np.sqrt(1.25)).ppf([0.025, 0.975])]
+    proposal = stats.t(4)
+    rng = np.random.default_rng(0)
+    z = []
+    for _ in range(300):
+        phi = proposal.rvs(256, random_state=rng)
+        draws = SimpleNamespace(
+            F=stats.norm.logpdf(grid.nodes[:, None], phi[None, :], 0.5),
+            log_w=stats.norm.logpdf(phi) - proposal.logpdf(phi),
+        )
+        pooled, se, _, _ = converged._errors(draws, grid)
+        z.append((pooled - truth) / se)
+    rms = np.sqrt(np.mean(np.square(z), axis=0))
+    assert np.all((rms > 0.85) & (rms < 1.15)), rms
 
 
 def test_grid_stops_at_the_prior_and_keeps_its_nodes():
