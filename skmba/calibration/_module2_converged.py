@@ -25,9 +25,10 @@ the spline and its check: :mod:`~skmba.calibration._module2_theta_grid`):
    scramble per block, and the prior), added until the Monte Carlo standard
    errors of theta's posterior mean, sd and 95 % interval ends (the delta
    method over the draws, :func:`influence_errors`) are below ``tol``
-   posterior sds (the ends: twice that); when the first 512 draws' Kish effective
-   share is below :data:`ADAPT_SHARE`, the proposal moves to their weighted
-   moments and the draws start again (once); the fine grid is refined where a draw's
+   posterior sds (the ends: twice that); when the first 512 draws' Kish
+   effective share is below :data:`ADAPT_SHARE`, the proposal moves to their
+   weighted moments and the draws start again (once); the fine grid is
+   refined where a draw's
    conditional posterior is narrower than its spacing, the coarse one where
    the spline misses the exact values, and both extended where mass
    reaches an end that is not the prior's.
@@ -345,11 +346,13 @@ def _errors(draws, grid):
     entering through its conditional posterior of theta on the grid (its
     mean, its mean square deviation and its CDF at each interval end). The
     spread of the blocks' own estimates, used before, read low: on the
-    confounded cantilever cases an rms z of 1.3-1.4 for the mean and sd and
-    2.0-2.2 for the upper end over ten refits, against 0.6-0.9 with this
+    confounded cantilever cases an rms z of 1.3-1.5 for the mean and sd and
+    2.1-2.3 for the upper end over ten refits, against 0.5-1.0 with this
     (``docs/validity.rst``, "The same data, the same interval"). It ignores
     what the scrambled Halton points gain over independent draws, so on a
-    smooth integrand it reads high (freq: rms z 0.3-0.5).
+    smooth integrand it reads high (freq: rms z 0.35-0.52). A zero sd or
+    density at an end gives an unknown (infinite or NaN) error, which
+    :func:`converge` treats as not yet converged.
     """
     A = draws.F + grid.log_weights[:, None] + draws.log_w[None, :]
     pooled, w = grid_summaries(A, grid)
@@ -361,10 +364,12 @@ def _errors(draws, grid):
     P = np.exp(A[:, kept] - Z[kept])  # each draw's posterior on the nodes
     t, (mean, sd) = grid.nodes, pooled[:2]
     density, cdf = w / grid.spacings, grid.cdfs(P)
-    influence = [t @ P - mean, ((t - mean) ** 2 @ P - sd**2) / (2.0 * sd)]
-    for p, end in zip(INTERVAL, pooled[2:], strict=True):
-        influence.append((grid.at(end, cdf) - p) / grid.at(end, density))
-    return pooled, influence_errors(share, np.array(influence).T), w, A
+    with np.errstate(divide="ignore", invalid="ignore"):
+        influence = [t @ P - mean, ((t - mean) ** 2 @ P - sd**2) / (2.0 * sd)]
+        for p, end in zip(INTERVAL, pooled[2:], strict=True):
+            influence.append((grid.at(end, cdf) - p) / grid.at(end, density))
+        se = influence_errors(share, np.array(influence).T)
+    return pooled, se, w, A
 
 
 def converge(
