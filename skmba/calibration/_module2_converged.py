@@ -175,20 +175,19 @@ def marginal_laplace(evaluate, grids, start):
 
 @dataclass(frozen=True)
 class _Draws:
-    """Draws of ``phi`` so far: coordinates, log weights ``p / q``, blocks
-    and their log likelihoods on the coarse (``L``) and fine (``F``) grids."""
+    """Draws of ``phi`` so far (whole blocks of :data:`N_BLOCK`):
+    coordinates, log weights ``p / q`` and their log likelihoods on the
+    coarse (``L``) and fine (``F``) grids."""
 
     V: np.ndarray
     log_w: np.ndarray
-    block: np.ndarray
     L: np.ndarray
     F: np.ndarray
 
-    def add(self, V, log_w, block, L, F):
+    def add(self, V, log_w, L, F):
         return _Draws(
             np.vstack([self.V, V]),
             np.r_[self.log_w, log_w],
-            np.r_[self.block, np.full(len(V), block)],
             np.hstack([self.L, L]),
             np.hstack([self.F, F]),
         )
@@ -223,17 +222,17 @@ class ConvergedIntegral:
 def _new_blocks(draws, evaluate, grids, proposal, n_blocks, seed):
     """``draws`` with blocks added up to ``n_blocks``."""
     space, mode, cov = proposal
-    first = 0 if draws is None else int(draws.block.max()) + 1
-    for b in range(first, n_blocks):
+    first = 0 if draws is None else len(draws.log_w) // N_BLOCK
+    for _ in range(first, n_blocks):
         V, log_p, log_q = proposal_draws(
             space.coordinates, mode, cov, N_BLOCK, seed.spawn(1)[0], PRIOR_SHARE
         )
         L = evaluate(V, grids.coarse.nodes)
         F = evaluate.splined(V, L, grids)
         if draws is None:
-            draws = _Draws(V, log_p - log_q, np.zeros(len(V), int), L, F)
+            draws = _Draws(V, log_p - log_q, L, F)
         else:
-            draws = draws.add(V, log_p - log_q, b, L, F)
+            draws = draws.add(V, log_p - log_q, L, F)
     return draws
 
 
@@ -257,7 +256,7 @@ def _regridded(draws, grids, prior, evaluate, change):
         L = np.empty((len(wider.nodes), len(draws.log_w)))
         L[n_below : n_below + J], L[new] = draws.L, evaluate(draws.V, wider.nodes[new])
     F = evaluate.splined(draws.V, L, grids)
-    return grids, _Draws(draws.V, draws.log_w, draws.block, L, F)
+    return grids, _Draws(draws.V, draws.log_w, L, F)
 
 
 def tolerances(tol):
@@ -268,8 +267,8 @@ def tolerances(tol):
 def _grown(n_blocks, relative, tol):
     """Blocks for the next round: as many as the error's decay as
     ``1 / sqrt(draws)`` asks, at most twice as many, at most
-    :data:`MAX_DRAWS` draws; twice as many while the error is unknown (a
-    block without weight has no estimate)."""
+    :data:`MAX_DRAWS` draws; twice as many while the error is unknown (no
+    draw with weight, or a zero density at an interval end)."""
     if not math.isfinite(relative):
         return min(2 * n_blocks, MAX_DRAWS // N_BLOCK)
     needed = math.ceil(n_blocks * (relative / tol) ** 2)
