@@ -336,6 +336,17 @@ def influence_errors(w, influence):
     return np.sqrt(np.sum(w2 * influence**2, axis=0))
 
 
+def moment_influences(theta, P, mean, sd):
+    """The influences of the draws of ``phi`` on theta's posterior mean and
+    sd: each draw's conditional mean minus the mean, and its conditional
+    mean square deviation minus the variance over ``2 sd``, where column
+    ``k`` of ``P`` (N, K) is draw ``k``'s conditional posterior on the
+    nodes ``theta`` ((N,) or (N, r): then each (K, r))."""
+    first = (theta.T @ P).T - mean
+    second = (((theta - mean) ** 2).T @ P).T - sd**2
+    return [first, second / (2.0 * sd)]
+
+
 def _errors(draws, grid):
     """Estimates from all the draws, their standard errors over the draws
     of ``phi``, the pooled node weights and the joint log weights (J, K),
@@ -361,10 +372,9 @@ def _errors(draws, grid):
         return pooled, np.full(4, np.nan), w, A
     share = np.exp(Z[kept] - special.logsumexp(Z[kept]))
     P = np.exp(A[:, kept] - Z[kept])  # each draw's posterior on the nodes
-    t, (mean, sd) = grid.nodes, pooled[:2]
     density, cdf = w / grid.spacings, grid.cdfs(P)
     with np.errstate(divide="ignore", invalid="ignore"):
-        influence = [t @ P - mean, ((t - mean) ** 2 @ P - sd**2) / (2.0 * sd)]
+        influence = moment_influences(grid.nodes, P, *pooled[:2])
         for p, end in zip(INTERVAL, pooled[2:], strict=True):
             influence.append((grid.at(end, cdf) - p) / grid.at(end, density))
         se = influence_errors(share, np.array(influence).T)

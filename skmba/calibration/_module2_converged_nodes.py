@@ -20,10 +20,12 @@ so theta's posterior is the nodes weighted by ``sum_k exp(A_ik)``, module
 from the draws' marginal weights (one posterior for ``phi``). Nodes come in
 groups of :data:`N_GROUP` scrambled Halton points, draws in blocks of
 :data:`~skmba.calibration._module2_converged.N_BLOCK`: the Monte Carlo error
-of each summary (mean, sd and 95 % ends of each parameter) combines the
-spread of the blocks' estimates (the error over ``phi``) and that of the
-groups' (over theta), and the larger part grows until both together are
-below the tolerance (:func:`converge_nodes`).
+of each summary (mean, sd and 95 % ends of each parameter) adds in squares
+its errors over the draws of ``phi`` (each draw entering through its
+conditional posterior of theta on the nodes) and over the nodes (each
+through its value), both the delta method's (:func:`node_errors`), and the
+larger part grows until both together are below the tolerance
+(:func:`converge_nodes`).
 
 Examples
 --------
@@ -53,6 +55,7 @@ from skmba.calibration._module2_converged import (
     kish_share,
     marginal_laplace,
     mixture_draws,
+    moment_influences,
     rule_pairs,
     tolerances,
     warn_unmet,
@@ -178,8 +181,9 @@ def node_summaries(A, theta):
 @dataclass(frozen=True)
 class _Pairs:
     """Nodes (sampling coordinates ``U``, user units ``theta``, log proposal
-    ``log_q``, group) and draws (``V``, log weights ``log_w``, block), and
-    the log density ``L`` (nodes x draws)."""
+    ``log_q``, group) and draws (``V``, log weights ``log_w``; whole blocks
+    of :data:`~skmba.calibration._module2_converged.N_BLOCK`), and the log
+    density ``L`` (nodes x draws)."""
 
     U: np.ndarray
     theta: np.ndarray
@@ -187,7 +191,6 @@ class _Pairs:
     group: np.ndarray
     V: np.ndarray
     log_w: np.ndarray
-    block: np.ndarray
     L: np.ndarray
 
     @property
@@ -209,7 +212,6 @@ def _with_groups(pairs, evaluate, proposal, n_groups, seed):
             np.r_[pairs.group, np.full(len(U), g)],
             pairs.V,
             pairs.log_w,
-            pairs.block,
             np.vstack([pairs.L, L]),
         )
     return pairs
@@ -219,7 +221,7 @@ def _with_blocks(pairs, evaluate, proposal, n_blocks, seed):
     """``pairs`` with draw blocks added up to ``n_blocks`` (evaluated at
     every node so far)."""
     space, mode, cov = proposal
-    for b in range(int(pairs.block.max()) + 1 if len(pairs.block) else 0, n_blocks):
+    for _ in range(len(pairs.log_w) // N_BLOCK, n_blocks):
         V, log_p, log_q = proposal_draws(
             space.coordinates, mode, cov, N_BLOCK, seed.spawn(1)[0], PRIOR_SHARE
         )
@@ -231,17 +233,22 @@ def _with_blocks(pairs, evaluate, proposal, n_blocks, seed):
             pairs.group,
             np.vstack([pairs.V, V]),
             np.r_[pairs.log_w, log_p - log_q],
-            np.r_[pairs.block, np.full(len(V), b)],
             np.hstack([pairs.L, L]),
         )
     return pairs
 
 
-def _spread(estimates):
-    """Standard error of the mean of independent estimates (n, 4, r)."""
-    if len(estimates) < 2:
-        return np.full(estimates.shape[1:], np.nan)
-    return estimates.std(axis=0, ddof=1) / math.sqrt(len(estimates))
+def inverse_densities(theta, w, ends):
+    """One over the density of each parameter at the 95 % ``ends`` (2, r)
+    of the nodes ``theta`` (N, r) weighted by ``w``: the distance between
+    the weighted quantiles ``p / 2`` either side of each end's level ``p``,
+    over ``p``."""
+    out = []
+    for p, _ in zip(INTERVAL, ends, strict=True):
+        h = min(p, 1 - p) / 2
+        width = [np.diff(weighted_quantiles(t, w, [p - h, p + h]))[0] for t in theta.T]
+        out.append(np.array(width) / (2 * h))
+    return np.array(out)
 
 
 def node_errors(theta, w, summaries):
@@ -250,36 +257,49 @@ def node_errors(theta, w, summaries):
     weights ``w``, over the nodes (the integral over ``phi`` taken as
     exact): the delta method, ``sum_i w_i^2 g_i^2`` for each summary's
     influence ``g`` (Owen 2013, Monte Carlo theory, ch. 9), the ends'
-    divided by the density there, from the weighted quantiles
-    ``p / 2`` either side."""
+    divided by the density there (:func:`inverse_densities`)."""
     mean, sd = summaries[0], summaries[1]
     centred = theta - mean
     se_mean = influence_errors(w, centred)
     se_sd = influence_errors(w, centred**2 - sd**2) / (2.0 * np.maximum(sd, 1e-300))
+    scales = inverse_densities(theta, w, summaries[2:])
     ends = []
-    for p, q in zip(INTERVAL, summaries[2:], strict=True):
-        h = min(p, 1 - p) / 2
-        width = np.array(
-            [np.diff(weighted_quantiles(t, w, [p - h, p + h]))[0] for t in theta.T]
-        )
+    for p, q, scale in zip(INTERVAL, summaries[2:], scales, strict=True):
         below = (theta <= q).astype(float) - p
-        ends.append(influence_errors(w, below) * width / (2 * h))
+        ends.append(influence_errors(w, below) * scale)
     return np.vstack([se_mean, se_sd, *ends])
+
+
+def draw_errors(A, theta, summaries, w):
+    """Standard errors (4, r) of the ``summaries`` over the draws of
+    ``phi`` (the nodes taken as fixed), from the joint log weights ``A``
+    (N nodes, K draws): the delta method over the draws, each entering
+    through its conditional posterior of theta on the nodes (its mean,
+    mean square deviation and CDF at each end; :func:`~skmba.calibration.
+    _module2_converged.moment_influences`), the ends' scaled as in
+    :func:`node_errors`. NaN when no draw has weight."""
+    Z = special.logsumexp(A, axis=0)
+    kept = np.isfinite(Z)
+    if not kept.any():
+        return np.full(summaries.shape, np.nan)
+    share = np.exp(Z[kept] - special.logsumexp(Z[kept]))
+    P = np.exp(A[:, kept] - Z[kept])  # each draw's posterior on the nodes
+    scales = inverse_densities(theta, w, summaries[2:])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        influence = moment_influences(theta, P, summaries[0], summaries[1])
+        for p, q, scale in zip(INTERVAL, summaries[2:], scales, strict=True):
+            below = (theta <= q).astype(float)
+            influence.append(((below.T @ P).T - p) * scale)
+        return influence_errors(share, np.stack(influence, axis=1))
 
 
 def _errors(pairs):
     """The pooled summaries (4, r), node weights, and the standard errors
-    (4, r) over ``phi`` (the spread of the blocks' estimates) and over
-    theta (:func:`node_errors`)."""
+    (4, r) over ``phi`` (:func:`draw_errors`) and over theta
+    (:func:`node_errors`)."""
     A, theta = pairs.A, pairs.theta
     pooled, w = node_summaries(A, theta)
-    by_block = np.array(
-        [
-            node_summaries(A[:, pairs.block == b], theta)[0]
-            for b in np.unique(pairs.block)
-        ]
-    )
-    return pooled, w, _spread(by_block), node_errors(theta, w, pooled)
+    return pooled, w, draw_errors(A, theta, pooled, w), node_errors(theta, w, pooled)
 
 
 def _empty(r, m):
@@ -290,7 +310,6 @@ def _empty(r, m):
         np.empty(0, int),
         np.empty((0, m)),
         np.empty(0),
-        np.empty(0, int),
         np.empty((0, 0)),
     )
 

@@ -6,7 +6,9 @@ Two measurements of the calibrator with ``discrepancy_tol`` set (issue 30):
   0..N-1: the spread of theta's posterior mean, sd and 95 % interval ends
   over the refits (coefficient of variation of the sd, largest distance of
   each end from its mean in posterior sds), against the Monte Carlo errors
-  the fits report (``theta_mcse_``), the draws and the time;
+  the fits report (``theta_mcse_``, and the rms z of each refit's deviation
+  from the refits' mean over its own reported error, scaled by
+  ``sqrt(N / (N - 1))``), the draws and the time;
 - ``--reference``: each (case, seed, parameter) row of
   ``validation/results/joint_reference/joint_reference.csv`` (``--reference-csv``
   for another) fitted with
@@ -113,14 +115,20 @@ def refit_row(name, fits, j=0, reference_sd=None):
     )
     sd = values[:, 1].mean()
     deviation = np.abs(values - values.mean(axis=0)).max(axis=0) / sd
-    reported = np.mean([f["mcse"][:, j] for f in fits], axis=0) / sd
+    mcse = np.array([f["mcse"][:, j] for f in fits])
+    reported = mcse.mean(axis=0) / sd
+    # each refit's deviation from the refits' mean over its reported error
+    n = len(fits)
+    z = (values - values.mean(axis=0)) / mcse * np.sqrt(n / max(n - 1, 1))
+    rms_z = np.sqrt(np.mean(z**2, axis=0))
     seconds = [f["seconds"] for f in fits]
     label = name if fits[0]["values"].shape[1] == 1 else f"{name}[{j}]"
     return (
         f"{label:8s} sd {sd:.5g}  CV of sd {values[:, 1].std(ddof=1) / sd:.3f}  "
         f"mean spread {values[:, 0].std(ddof=1) / sd:.3f} sd  ends max dev. "
         f"{deviation[2]:.2f}, {deviation[3]:.2f} sd  reported se (mean, sd, ends) "
-        f"{np.array2string(reported, precision=3)}  draws "
+        f"{np.array2string(reported, precision=3)}  its rms z "
+        f"{np.array2string(rms_z, precision=2)}  draws "
         f"{np.mean([f['draws'] for f in fits]):.0f}  time "
         f"{min(seconds):.0f}-{max(seconds):.0f} s{against}"
     )
