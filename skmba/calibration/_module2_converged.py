@@ -535,12 +535,14 @@ def _say_errors(say, draws, grids, relative, tol):
     )
 
 
-def warn_unmet(error, relative, tol, spline):
-    """The warnings of a tolerance not reached: Monte Carlo, spline."""
+def warn_unmet(error, relative, tol, spline, spent=None):
+    """The warnings of a tolerance not reached: Monte Carlo (``spent``
+    says what was drawn, by default ``error.n_draws`` draws), spline."""
     if not error.converged:
+        spent = spent or f"{error.n_draws} draws"
         warn(
             f"The integral over the discrepancy and noise hyperparameters did "
-            f"not reach its Monte Carlo tolerance in {MAX_DRAWS} draws: the "
+            f"not reach its Monte Carlo tolerance in {spent}: the "
             f"errors of theta's posterior mean, sd and interval ends are "
             f"{np.array2string(relative, precision=3)} posterior sds "
             f"(discrepancy_tol={tol:g}, twice that for the ends); "

@@ -412,7 +412,11 @@ def converge_nodes(
     )
     se = np.sqrt(se_phi**2 + se_theta**2)
     error = MonteCarloError(*se, len(pairs.V), hyper.noise_ess, total <= 1.0)
-    warn_unmet(error, relative, tol, 0.0)
+    spent = (
+        f"{len(pairs.V)} draws at {len(pairs.U)} nodes of theta (its budget: "
+        f"{MAX_DRAWS} draws, {MAX_NODES} nodes, {MAX_PAIRS} node-draw pairs)"
+    )
+    warn_unmet(error, relative, tol, 0.0, spent)
     return ConvergedIntegral(
         hyper, posterior, error, *rule_pairs(pairs.A, pairs.theta, rule_seed)
     )

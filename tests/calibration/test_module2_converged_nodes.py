@@ -151,12 +151,20 @@ def _fit(case, random_state, tol):
     return cal, [str(w.message) for w in caught if issubclass(w.category, UserWarning)]
 
 
-def test_several_parameters_integrate_at_weighted_nodes(case):
-    """A loose tolerance (the first round): the posterior is the weighted
+def test_several_parameters_integrate_at_weighted_nodes(case, monkeypatch):
+    """The first round, at a budget of (node, draw) pairs that ends it: the
+    fit says it fell short and what it spent, the posterior is the weighted
     nodes, its errors are reported per parameter, the same seed gives the
     same bits, and the fit predicts."""
-    cal, messages = _fit(case, 0, 0.5)
+    budget = nodes.MIN_GROUPS * nodes.N_GROUP * nodes.MIN_BLOCKS * nodes.N_BLOCK
+    monkeypatch.setattr(nodes, "MAX_PAIRS", budget)
+    cal, messages = _fit(case, 0, 1e-3)
     assert not any("is not applied" in m for m in messages)
+    said = [m for m in messages if "did not reach its Monte Carlo tolerance" in m]
+    assert len(said) == 1, messages
+    spent = f"in {cal.discrepancy_draws_} draws at {len(cal.theta_nodes_)} nodes"
+    assert spent in said[0]
+    assert len(cal.theta_nodes_) * cal.discrepancy_draws_ <= budget
     assert cal.theta_nodes_.shape[1] == 2
     assert len(cal.theta_nodes_) >= nodes.MIN_GROUPS * nodes.N_GROUP
     np.testing.assert_allclose(cal.theta_weights_.sum(), 1.0)
@@ -172,7 +180,7 @@ def test_several_parameters_integrate_at_weighted_nodes(case):
     posterior = cal.to_inference_data().posterior
     assert posterior.attrs["sampler"] == "importance nodes (skmba)"
     assert np.isfinite(posterior.attrs["mcse_sd_theta1"])
-    again, _ = _fit(case, 0, 0.5)
+    again, _ = _fit(case, 0, 1e-3)
     np.testing.assert_array_equal(again.theta_weights_, cal.theta_weights_)
     mean, std = cal.predict(case.X[:3], return_std=True)
     assert mean.shape == (3, 2) and np.all(std > 0)
