@@ -238,13 +238,13 @@ def _with_blocks(pairs, evaluate, proposal, n_blocks, seed):
     return pairs
 
 
-def inverse_densities(theta, w, ends):
-    """One over the density of each parameter at the 95 % ``ends`` (2, r)
-    of the nodes ``theta`` (N, r) weighted by ``w``: the distance between
-    the weighted quantiles ``p / 2`` either side of each end's level ``p``,
-    over ``p``."""
+def inverse_densities(theta, w):
+    """One over the density of each parameter at its 95 % interval ends
+    (2, r), for the nodes ``theta`` (N, r) weighted by ``w``: the distance
+    between the weighted quantiles ``p / 2`` either side of each end's
+    level ``p``, over ``p``."""
     out = []
-    for p, _ in zip(INTERVAL, ends, strict=True):
+    for p in INTERVAL:
         h = min(p, 1 - p) / 2
         width = [np.diff(weighted_quantiles(t, w, [p - h, p + h]))[0] for t in theta.T]
         out.append(np.array(width) / (2 * h))
@@ -262,7 +262,7 @@ def node_errors(theta, w, summaries):
     centred = theta - mean
     se_mean = influence_errors(w, centred)
     se_sd = influence_errors(w, centred**2 - sd**2) / (2.0 * np.maximum(sd, 1e-300))
-    scales = inverse_densities(theta, w, summaries[2:])
+    scales = inverse_densities(theta, w)
     ends = []
     for p, q, scale in zip(INTERVAL, summaries[2:], scales, strict=True):
         below = (theta <= q).astype(float) - p
@@ -284,7 +284,7 @@ def draw_errors(A, theta, summaries, w):
         return np.full(summaries.shape, np.nan)
     share = np.exp(Z[kept] - special.logsumexp(Z[kept]))
     P = np.exp(A[:, kept] - Z[kept])  # each draw's posterior on the nodes
-    scales = inverse_densities(theta, w, summaries[2:])
+    scales = inverse_densities(theta, w)
     with np.errstate(divide="ignore", invalid="ignore"):
         influence = moment_influences(theta, P, summaries[0], summaries[1])
         for p, q, scale in zip(INTERVAL, summaries[2:], scales, strict=True):
