@@ -336,6 +336,19 @@ def influence_errors(w, influence):
     return np.sqrt(np.sum(w2 * influence**2, axis=0))
 
 
+def draw_conditionals(A):
+    """The draws' shares of the posterior and each draw's conditional
+    posterior on the nodes (the columns of ``P``, each summing to one),
+    from the joint log weights ``A`` (nodes, draws); draws without weight
+    left out, None when none has any."""
+    Z = special.logsumexp(A, axis=0)
+    kept = np.isfinite(Z)
+    if not kept.any():
+        return None
+    share = np.exp(Z[kept] - special.logsumexp(Z[kept]))
+    return share, np.exp(A[:, kept] - Z[kept])
+
+
 def moment_influences(theta, P, mean, sd):
     """The influences of the draws of ``phi`` on theta's posterior mean and
     sd: each draw's conditional mean minus the mean, and its conditional
@@ -366,12 +379,10 @@ def _errors(draws, grid):
     """
     A = draws.F + grid.log_weights[:, None] + draws.log_w[None, :]
     pooled, w = grid_summaries(A, grid)
-    Z = special.logsumexp(A, axis=0)
-    kept = np.isfinite(Z)
-    if not kept.any():  # no draw with weight: no estimate
+    conditionals = draw_conditionals(A)
+    if conditionals is None:  # no draw with weight: no estimate
         return pooled, np.full(4, np.nan), w, A
-    share = np.exp(Z[kept] - special.logsumexp(Z[kept]))
-    P = np.exp(A[:, kept] - Z[kept])  # each draw's posterior on the nodes
+    share, P = conditionals
     density, cdf = w / grid.spacings, grid.cdfs(P)
     with np.errstate(divide="ignore", invalid="ignore"):
         influence = moment_influences(grid.nodes, P, *pooled[:2])

@@ -51,6 +51,7 @@ from skmba.calibration._module2_converged import (
     ConvergedIntegral,
     MonteCarloError,
     adapted,
+    draw_conditionals,
     influence_errors,
     kish_share,
     marginal_laplace,
@@ -278,12 +279,10 @@ def draw_errors(A, theta, summaries, w):
     mean square deviation and CDF at each end; :func:`~skmba.calibration.
     _module2_converged.moment_influences`), the ends' scaled as in
     :func:`node_errors`. NaN when no draw has weight."""
-    Z = special.logsumexp(A, axis=0)
-    kept = np.isfinite(Z)
-    if not kept.any():
+    conditionals = draw_conditionals(A)
+    if conditionals is None:
         return np.full(summaries.shape, np.nan)
-    share = np.exp(Z[kept] - special.logsumexp(Z[kept]))
-    P = np.exp(A[:, kept] - Z[kept])  # each draw's posterior on the nodes
+    share, P = conditionals
     scales = inverse_densities(theta, w)
     with np.errstate(divide="ignore", invalid="ignore"):
         influence = moment_influences(theta, P, summaries[0], summaries[1])
