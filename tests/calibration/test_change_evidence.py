@@ -68,6 +68,7 @@ def test_a_parameter_the_batch_cannot_see_drops_from_the_test():
     assert ev.single_log10_bayes_factors[2] == pytest.approx(0.0, abs=1e-12)
 
 
+@pytest.mark.slow
 def test_no_change_alarms_at_the_nominal_rate():
     n, alpha = 4000, 0.05
     rng = np.random.default_rng(1)

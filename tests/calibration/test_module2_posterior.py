@@ -84,6 +84,7 @@ def test_draws_and_weights():
     np.testing.assert_array_equal(again.log_weights, draws.log_weights)
 
 
+@pytest.mark.slow
 def test_restricted_noise_is_not_biased_low():
     # Pure noise around a linear trend, no discrepancy and no emulator
     # variance: the REML noise estimate averages near the truth, where plain
