@@ -22,7 +22,7 @@ from joblib import Parallel, delayed
 from scipy import special
 
 from skmba._core.linalg import FactorizationError, n_workers
-from skmba._core.threads import BlasTask
+from skmba._core.threads import BlasTask, stack_map
 from skmba.calibration._module3_likelihood import CONDITIONAL_BYTES, stack_chunks
 
 #: A module-2 draw whose weight ``p(phi_k | theta, data)`` stays below this
@@ -159,9 +159,10 @@ class ModelMixture:
         for group in stack_chunks(len(thetas), 1, m, 0, CONDITIONAL_BYTES):
             cond, terms = base.conditionals(thetas[group])
             rows = base.field_rows(cond)
-            for chunk in stack_chunks(len(terms), per_theta, m, base.P + 1):
+
+            def factor(chunk, rows=rows, terms=terms, start=group.start):
                 Z, T, B = rows[chunk], terms[chunk], chunk.stop - chunk.start
-                at = slice(group.start + chunk.start, group.start + chunk.stop)
+                at = slice(start + chunk.start, start + chunk.stop)
                 if labels is None:
                     S = (self._S_fixed[None] + T[:, None]).reshape(B * K, m, m)
                     Z = np.broadcast_to(Z[:, None], (B, K, *Z.shape[1:])).reshape(
@@ -174,6 +175,9 @@ class ModelMixture:
                 except FactorizationError:  # at one (theta, draw) of the stack?
                     values = _one_by_one(base, S, Z, self._noise_floor)
                 out[at] = values.reshape(B, per_theta)
+
+            # the chunks on the block's idle BLAS threads (same bits)
+            stack_map(factor, stack_chunks(len(terms), per_theta, m, base.P + 1))
         if labels is None:
             return self.log_weights + self._factors + out
         return self.log_weights[labels] + self._factors[labels] + out[:, 0]

@@ -143,6 +143,40 @@ def test_spread_evaluation_is_the_batch_one_for_any_n_jobs(problem):
     )
 
 
+def test_a_stack_s_chunks_on_two_threads_give_the_same_bits(problem, monkeypatch):
+    # 1,500 thetas of 4 draws are several 1 MiB chunks; with a budget of two
+    # threads they are factored on two, each on its own: the same bits,
+    # a draw that cannot be factored included.
+    from skmba._core import threads
+
+    mix = ModelMixture(problem[1], _draws())
+    mix.models[3].S_fixed = -np.eye(len(mix.models[3].S_fixed))
+    thetas = np.linspace(-0.9, 0.9, 1500)[:, None]
+    labels = np.arange(1500) % 3
+    with threads.blas_threads(10, n_jobs=10_000):  # a budget of one thread
+        assert threads.stack_threads() == 1
+        serial = mix.batch_component_log_likelihoods(thetas)
+        serial_labelled = mix.labelled_log_likelihoods(thetas, labels)
+    assert np.all(serial[:, 3] == -np.inf) and np.isfinite(serial[:, :3]).all()
+    monkeypatch.setattr(threads, "thread_budget", lambda n_jobs=None: 2)
+    ran, spread = [], threads.stack_map
+
+    def counted(func, items):
+        items = list(items)
+        ran.append(len(items))
+        return spread(func, items)
+
+    monkeypatch.setattr("skmba.calibration._module3_mixture.stack_map", counted)
+    with threads.blas_threads(10):
+        np.testing.assert_array_equal(
+            mix.batch_component_log_likelihoods(thetas), serial
+        )
+        np.testing.assert_array_equal(
+            mix.labelled_log_likelihoods(thetas, labels), serial_labelled
+        )
+    assert ran[0] >= 2
+
+
 def test_draw_weights_and_effective_draws(problem):
     gm = problem[1]
     mix = ModelMixture(gm, _draws(K=8, seed=1))

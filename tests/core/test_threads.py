@@ -1,6 +1,7 @@
 """The BLAS thread policy (skmba._core.threads)."""
 
 import os
+import threading
 from contextlib import contextmanager
 
 import numpy as np
@@ -9,12 +10,15 @@ from joblib import Parallel, delayed, parallel_config
 from threadpoolctl import threadpool_info, threadpool_limits
 
 from skmba import MultiResponseGP
+from skmba._core import threads
 from skmba._core.threads import (
     SMALL_ORDER,
     BlasTask,
     blas_threads,
     describe_threads,
     process_threads,
+    stack_map,
+    stack_threads,
     thread_budget,
 )
 
@@ -121,3 +125,49 @@ def test_a_gp_fit_takes_its_threads_by_its_number_of_samples(n, monkeypatch):
     limit = 1 if n < 50 else process_threads()
     assert seen == [(n, limit, [limit])]
     assert gp.score(X, np.sin(3 * X[:, 0])) > 0.999
+
+
+def test_a_stack_s_chunks_use_the_block_s_threads_in_order(monkeypatch):
+    monkeypatch.setattr(threads, "thread_budget", lambda n_jobs=None: 2)
+    where = []
+
+    def square(i):
+        where.append(threading.get_ident())
+        return i * i
+
+    # outside a block: one thread, this one
+    assert stack_threads() == 1
+    assert stack_map(square, range(5)) == [0, 1, 4, 9, 16]
+    assert set(where) == {threading.get_ident()}
+    where.clear()
+    with blas_threads(SMALL_ORDER - 1):
+        assert stack_threads() == 2
+        assert stack_map(square, range(5)) == [0, 1, 4, 9, 16]
+        assert len(set(where)) == 2 and where.count(threading.get_ident()) == 3
+
+        # the pool's threads never split again, even inside a block of their own
+        def inner(_):
+            with blas_threads(SMALL_ORDER - 1):
+                return stack_threads()
+
+        assert stack_map(inner, range(2)) == [2, 1]
+        with blas_threads(SMALL_ORDER):  # large work: BLAS has the threads
+            assert stack_threads() == 1
+        assert stack_threads() == 2
+    assert stack_threads() == 1
+
+
+def test_a_failing_chunk_raises_once_every_chunk_has_ended(monkeypatch):
+    monkeypatch.setattr(threads, "thread_budget", lambda n_jobs=None: 2)
+    done = []
+
+    def chunk(i):
+        if i == 1:  # on the pool's thread
+            raise ValueError("chunk 1 failed")
+        done.append(i)
+        return i
+
+    with blas_threads(SMALL_ORDER - 1):
+        with pytest.raises(ValueError, match="chunk 1 failed"):
+            stack_map(chunk, range(4))
+    assert sorted(done) == [0, 2]
