@@ -21,7 +21,7 @@ The chunks of a **stack of small factorisations** (numpy's batched Cholesky
 and QR, which release the GIL) spend them instead: :func:`stack_map` runs
 the chunks on the threads of the running :func:`blas_threads` block, on a
 pool of this process (joblib's threading backend costs 11-15 ms per call,
-against 1-2 ms per chunk). A chunk's values do not depend on the thread
+against 1-3 ms per chunk). A chunk's values do not depend on the thread
 that computes it: the same bits for any number of threads.
 
 Nothing here limits threads globally: the limit holds inside the ``with``
