@@ -209,6 +209,10 @@ class ConvergedIntegral:
         Module 4's pairs: a theta (user units, (s, 1)) and the index of the
         draw of ``phi`` with it, drawn from their joint posterior.
     rule_weights : ndarray of shape (s,)
+    models : list of GlobalModel
+        Each draw's global model, as built for the integral (what
+        :class:`~skmba.calibration._module3_mixture.ModelMixture` of
+        ``draws`` holds).
     """
 
     draws: HyperposteriorDraws
@@ -217,6 +221,7 @@ class ConvergedIntegral:
     rule_thetas: np.ndarray
     rule_draws: np.ndarray
     rule_weights: np.ndarray
+    models: list
 
 
 def _new_blocks(draws, evaluate, grids, proposal, n_blocks, seed):
@@ -488,7 +493,9 @@ def converge(
         *map(float, se), len(draws.log_w), hyper.noise_ess, relative <= tol
     )
     warn_unmet(error, se / pooled[1], tol, spline)
-    return ConvergedIntegral(hyper, posterior, error, *rule)
+    return ConvergedIntegral(
+        hyper, posterior, error, *rule, models=evaluate.models(draws.V)
+    )
 
 
 def marginal_weights(A):

@@ -417,7 +417,11 @@ def converge_nodes(
     )
     warn_unmet(error, relative, tol, 0.0, spent)
     return ConvergedIntegral(
-        hyper, posterior, error, *rule_pairs(pairs.A, pairs.theta, rule_seed)
+        hyper,
+        posterior,
+        error,
+        *rule_pairs(pairs.A, pairs.theta, rule_seed),
+        models=evaluate.models(pairs.V),
     )
 
 

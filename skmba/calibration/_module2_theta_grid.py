@@ -169,10 +169,14 @@ class GridEvaluator:
 
     def __init__(self, base, space, scaler):
         self.base, self.space, self.scaler = base, space, scaler
-        self._components = {}  # each draw's model, built once
+        # Each draw's component and global model, built once: a draw is
+        # evaluated again when the grids change and by the checks. The
+        # models are those the fitted mixture keeps (at most MAX_DRAWS of
+        # them, which the calibrator's memory check counts).
+        self._components, self._models = {}, {}
 
     def components(self, V):
-        """The global models of the draws ``V``, each built once."""
+        """The :class:`DiscrepancyComponent` of each draw of ``V``."""
         out = []
         for v in V:
             key = v.tobytes()
@@ -181,12 +185,21 @@ class GridEvaluator:
             out.append(self._components[key])
         return out
 
+    def models(self, V):
+        """The global model of each draw of ``V`` (``base.with_discrepancy``)."""
+        out = []
+        for v, component in zip(V, self.components(V), strict=True):
+            key = v.tobytes()
+            if key not in self._models:
+                self._models[key] = self.base.with_discrepancy(component)
+            out.append(self._models[key])
+        return out
+
     def mixture(self, V):
-        components = self.components(V)
         draws = HyperposteriorDraws(
-            None, components, np.zeros(len(V)), None, None, None
+            None, self.components(V), np.zeros(len(V)), None, None, None
         )
-        return ModelMixture(self.base, draws)
+        return ModelMixture(self.base, draws, self.models(V))
 
     def __call__(self, V, nodes):
         """(J, K): ``-inf`` where a factorisation fails or gives no number

@@ -37,13 +37,14 @@ from skmba._core.linalg import (
     LOG_2PI,
     FactorizationError,
     cholesky,
+    kron_sum,
     log_det_from_cholesky,
     observed_block,
     observed_entries,
     stacked_whitening,
 )
 from skmba._core.regression import regression_basis
-from skmba.calibration._field_replicates import noise_covariance
+from skmba.calibration._field_replicates import noise_diagonal
 
 #: The message of a rank-deficient global regression matrix.
 RANK_DEFICIENT = (
@@ -299,11 +300,11 @@ class GlobalModel:
         # noise here; a ModelMixture holds its posterior mean.
         self.predictive_noise = self.noise
         reps = self.replicates
-        self.S_fixed = observed_block(
-            np.kron(self.sigma2_d, self.kernel_d(self.X_e))
-            + noise_covariance(self.noise, self.n, reps),
-            self.observed,
-        )
+        # sigma2_d ⊗ R_d plus the noise on its diagonal: the sum of the
+        # dense formula, entry for entry, without its (n q)^2 noise matrix.
+        S = kron_sum((self.sigma2_d, self.kernel_d(self.X_e)))
+        S[np.diag_indices_from(S)] += noise_diagonal(self.noise, self.n, reps)
+        self.S_fixed = observed_block(S, self.observed)
         # The other terms of S(theta) are positive semi-definite: the
         # smallest noise variance bounds its smallest eigenvalue.
         self.noise_floor = (

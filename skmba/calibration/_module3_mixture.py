@@ -46,11 +46,22 @@ class ModelMixture:
     base : GlobalModel
         The global model at the mode of the hyperparameters.
     draws : HyperposteriorDraws
+    models : list of GlobalModel, default=None
+        ``base.with_discrepancy(c)`` for each component ``c`` of ``draws``,
+        when already built (the converged integral builds them as it
+        evaluates the draws); None: built here.
     """
 
-    def __init__(self, base, draws):
+    def __init__(self, base, draws, models=None):
         self.base = base
-        self.models = [base.with_discrepancy(c) for c in draws.components]
+        if models is None:
+            models = [base.with_discrepancy(c) for c in draws.components]
+        elif len(models) != len(draws.components):
+            raise ValueError(
+                f"models has {len(models)} entries for {len(draws.components)} "
+                "module-2 draws: pass one global model per draw, or None."
+            )
+        self.models = list(models)
         self.log_weights = np.asarray(draws.log_weights, dtype=float)
         self._S_fixed = None  # the stacked fixed parts, made on first use
         for name in ("N", "n", "q", "P", "X_e", "noise", "emulator"):

@@ -457,7 +457,7 @@ def _converged(inputs, module2, first, tol, seed):
         random_state=seed,
         say=inputs.progress.info,
     )
-    log_post = log_post.with_model(ModelMixture(base, result.draws))
+    log_post = log_post.with_model(ModelMixture(base, result.draws, result.models))
     rule = PredictionRule(result.rule_thetas, result.rule_weights, result.rule_draws)
     inputs.progress.info(result.posterior.summary(time.perf_counter() - started))
     return result.draws, Module3Result(log_post, result.posterior, rule, result.error)

@@ -391,6 +391,50 @@ def test_a_likelihood_that_is_no_number_carries_no_weight():
     assert np.all(fine[:, 1] == -np.inf)
 
 
+def test_the_grid_evaluator_builds_each_draw_s_model_once(problem):
+    # Draws evaluated again (new nodes, the checks) reuse their component and
+    # global model; the values are those of a mixture built afresh.
+    from skmba.calibration._module2_posterior import (
+        DiscrepancyComponent,
+        HyperposteriorDraws,
+    )
+    from skmba.calibration._module2_theta_grid import GridEvaluator
+    from skmba.calibration._module3_mixture import ModelMixture
+    from skmba.kernels import Gauss
+
+    gm = problem[1]
+    built = []
+
+    def component(v):
+        built.append(float(v[0]))
+        return DiscrepancyComponent(
+            Gauss(roughness=1.0 + v[0]),
+            0.1 * np.eye(2),
+            np.array([0.01, 0.02]),
+            "constant",
+        )
+
+    evaluate = GridEvaluator(
+        gm, SimpleNamespace(component=component), SimpleNamespace(theta=lambda t: t)
+    )
+    V = np.array([[0.5, 0.0], [1.5, 0.0], [2.5, 0.0]])
+    first = evaluate(V, np.array([-0.5, 0.5]))
+    again = evaluate(V[::-1], np.array([0.0, 0.5]))
+    assert built == [0.5, 1.5, 2.5]
+    models = evaluate.models(V)
+    assert all(a is b for a, b in zip(evaluate.models(V), models, strict=True))
+    fresh = ModelMixture(
+        gm,
+        HyperposteriorDraws(None, [component(v) for v in V], np.zeros(3), *[None] * 3),
+    )
+    np.testing.assert_array_equal(
+        first, fresh.batch_component_log_likelihoods(np.array([[-0.5], [0.5]]))
+    )
+    np.testing.assert_array_equal(
+        again[:, ::-1], fresh.batch_component_log_likelihoods(np.array([[0.0], [0.5]]))
+    )
+
+
 def test_a_first_round_below_its_share_refits_the_proposal(case, monkeypatch):
     # Every first round counts as missed (share 1): the proposal is refitted
     # once, the draws start again, and the fit completes with its errors.

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy import special
 
-from skmba._core.linalg import FactorizationError
+from skmba._core.linalg import FactorizationError, observed_block
 from skmba.calibration._module2_posterior import (
     DiscrepancyComponent,
     HyperposteriorDraws,
@@ -62,6 +62,36 @@ def test_stacked_equals_each_component(request, theta, data):
         [mix.log_likelihood(u) for u in thetas],
         rtol=1e-12,
     )
+
+
+@pytest.mark.parametrize("data", ["problem", "gapped_problem"])
+def test_a_draw_s_fixed_part_is_the_dense_sum_to_the_bit(request, data):
+    # sigma2_d ⊗ R_d with the noise added on its diagonal, at the measured
+    # entries: the dense formula's sum, entry for entry.
+    gm = request.getfixturevalue(data)[1]
+    for c in _draws().components:
+        dense = np.kron(c.sigma2, c.kernel_(gm.X_e)) + np.diag(np.repeat(c.noise, gm.n))
+        np.testing.assert_array_equal(
+            gm.with_discrepancy(c).S_fixed, observed_block(dense, gm.observed)
+        )
+
+
+def test_models_built_beforehand_give_the_same_mixture(problem):
+    # The converged integral hands over the global models it built while
+    # evaluating the draws: the mixture holds those very models, with the
+    # values of a mixture that builds its own.
+    gm = problem[1]
+    draws = _draws()
+    models = [gm.with_discrepancy(c) for c in draws.components]
+    given = ModelMixture(gm, draws, models)
+    assert all(a is b for a, b in zip(given.models, models, strict=True))
+    thetas = np.array([[-0.7], [0.1], [0.9]])
+    np.testing.assert_array_equal(
+        given.batch_component_log_likelihoods(thetas),
+        ModelMixture(gm, draws).batch_component_log_likelihoods(thetas),
+    )
+    with pytest.raises(ValueError, match="models has 3 entries for 4 module-2 draws"):
+        ModelMixture(gm, draws, models[:3])
 
 
 @pytest.mark.parametrize("data", ["problem", "gapped_problem"])
