@@ -151,12 +151,27 @@ class LogPosterior:
             U, self.model.labelled_log_likelihoods, np.asarray(labels, dtype=int)
         )
 
+    def batch(self, theta):
+        """:meth:`__call__` at the rows of ``theta`` (m, r) in user units:
+        (m,), the likelihoods inside the prior's support evaluated together."""
+        return self._log_posterior_rows(
+            np.atleast_2d(theta), self.model.log_likelihoods
+        )
+
     def _log_density_rows(self, U, likelihoods, labels=None, width=None):
-        """The log density of the rows of ``U`` with the log likelihoods
+        """The log density of the rows of ``U`` (:meth:`_log_posterior_rows`
+        and the Jacobian of the sampling coordinates)."""
+        return self._log_posterior_rows(
+            self.from_u(U), likelihoods, labels, width, jacobian=True
+        )
+
+    def _log_posterior_rows(
+        self, theta, likelihoods, labels=None, width=None, jacobian=False
+    ):
+        """The log posterior of the rows of ``theta`` with the log likelihoods
         ``likelihoods(thetas[, labels])`` of the rows inside the prior's
         support, evaluated together; one by one when the batch raises
         (a rank-deficient regression at some theta gets -inf)."""
-        theta = self.from_u(U)
         shape = (len(theta),) if width is None else (len(theta), width)
         out = np.full(shape, -np.inf)
         log_prior = np.full(len(theta), -np.inf)
@@ -178,8 +193,9 @@ class LogPosterior:
                     values[i] = likelihoods(t[i : i + 1], *row)[0]
                 except FactorizationError:
                     continue
-        jacobian = np.sum(np.log(theta[inside][:, self.log_dims]), axis=1)
-        offset = log_prior[inside] + jacobian
+        offset = log_prior[inside]
+        if jacobian:
+            offset = offset + np.sum(np.log(theta[inside][:, self.log_dims]), axis=1)
         out[inside] = values + (offset if width is None else offset[:, None])
         return out
 
@@ -237,7 +253,7 @@ def _quadrature_pass(log_posterior, lo, hi):
     """One Gauss-Legendre pass: nodes, density, normalised weights."""
     nodes_gl, weights_gl = np.polynomial.legendre.leggauss(_QUADRATURE_NODES)
     t = 0.5 * (hi - lo) * nodes_gl + 0.5 * (hi + lo)
-    logp = np.array([log_posterior(np.array([v])) for v in t])
+    logp = log_posterior.batch(t[:, None])
     if not np.any(np.isfinite(logp)):
         log_posterior.raise_unevaluable(t)
     density = np.exp(logp - np.max(logp))

@@ -84,7 +84,7 @@ class PredictionRule:
         lo, hi = interval
         x, v = np.polynomial.legendre.leggauss(n_nodes)
         nodes = 0.5 * (hi - lo) * x + 0.5 * (hi + lo)
-        logp = np.array([log_posterior(np.array([u])) for u in nodes])
+        logp = log_posterior.batch(nodes[:, None])
         v = v * np.exp(logp - np.max(logp))
         return cls(nodes[:, None], v / v.sum())
 

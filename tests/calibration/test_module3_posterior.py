@@ -126,6 +126,18 @@ def test_log_density_of_many_points_equals_one_at_a_time():
     assert batch[3] == batch[5] == -np.inf
     np.testing.assert_allclose(batch, each, rtol=1e-12)
     assert np.isfinite(batch).sum() == 18
+    # In user units (the quadrature's passes): the prior and the likelihood,
+    # without the sampling coordinates' Jacobian.
+    thetas[5] = np.nan
+    in_units = lp.batch(thetas)
+    each = [lp(t) if np.all(np.isfinite(t)) else -np.inf for t in thetas]
+    np.testing.assert_allclose(in_units, each, rtol=1e-12)
+    jacobian = np.sum(np.log(thetas[:, lp.log_dims]), axis=1)
+    finite = np.isfinite(batch)
+    np.testing.assert_allclose(
+        in_units[finite] + jacobian[finite], batch[finite], rtol=1e-12
+    )
+    assert in_units[3] == in_units[5] == -np.inf
 
 
 def test_module_2_draws_sampled_with_theta_follow_their_conditional_weights(
