@@ -42,9 +42,11 @@ _N_CHECKED = 32
 #: The interval whose ends the error covers.
 INTERVAL = (0.025, 0.975)
 #: Posterior mass within a coarse spacing of a grid end (not the prior's)
-#: that extends the grid: a tail of 1e-7 at 20 sds moves the variance by
-#: 4e-5 of itself, far below any tolerance of the summaries.
-_END_MASS = 1e-7
+#: that extends the grid: a tail of 1e-5 at 20 sds moves the variance by
+#: 4e-3 of itself, the sd by 0.002 sds, a 25th of ``AUTO_TOL`` (measured
+#: against 1e-7 on a1, c1 and freq, seeds 0-2: the sd within 6e-4 sds,
+#: 10-55 % fewer coarse nodes; docs/internals.rst).
+_END_MASS = 1e-5
 #: Posterior weight of draws whose conditional posterior of theta is
 #: narrower than half the grid's spacing, above which the grid is refined
 #: (at half a spacing the trapezoid rule's relative error on a Gaussian is
@@ -136,7 +138,9 @@ class ThetaGrid:
         flagged ends, within the prior's 0.9999 interval; and the numbers of
         nodes added below and above (the old nodes are kept between)."""
         t, h = self.nodes, self.step
-        n_add = max(math.ceil(0.25 * (t[-1] - t[0]) / h), 1)
+        # the width in whole steps first: a quarter of 12 steps is 3 nodes,
+        # not 3 or 4 as the rounding of the nodes' coordinates falls
+        n_add = max(math.ceil(0.25 * round((t[-1] - t[0]) / h)), 1)
         below = t[0] - h * np.arange(n_add, 0, -1) if lower else t[:0]
         above = t[-1] + h * np.arange(1, n_add + 1) if upper else t[:0]
         lo, hi = self.support
