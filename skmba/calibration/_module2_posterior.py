@@ -41,12 +41,13 @@ Examples
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import optimize, special, stats
+from scipy import special, stats
 from scipy.stats import qmc
 
 from skmba._core.linalg import FactorizationError, proposal_covariance
 from skmba._core.progress import as_progress, start_reporter
 from skmba._core.regression import regression_basis
+from skmba._core.search import gradient_hessian, preconditioned_minimum
 from skmba._core.validation import seed_sequence
 from skmba.calibration._module2_kernel import bounded_kernel, discrepancy_kernel
 from skmba.calibration._module2_plug_in import DiscrepancyFit, check_module2_memory
@@ -60,8 +61,6 @@ N_HYPER_DRAWS = 16
 PRIOR_SHARE = 0.25
 #: Draws of the importance estimate of the noise variances' posterior mean.
 N_NOISE_DRAWS = 512
-# Step of the finite-difference Hessian (of the analytic gradient).
-_HESSIAN_STEP = 1e-4
 # Variance given to a flat direction of the Laplace approximation.
 _FLAT_VARIANCE = 4.0
 
@@ -254,15 +253,7 @@ def clamped_inverse(H):
 
 def _laplace_cov(coords, v):
     """Inverse of the finite-difference Hessian of ``-log posterior`` at ``v``."""
-    m = len(v)
-    H = np.empty((m, m))
-    for j in range(m):
-        e = np.zeros(m)
-        e[j] = _HESSIAN_STEP
-        H[:, j] = (coords.objective(v + e)[1] - coords.objective(v - e)[1]) / (
-            2 * _HESSIAN_STEP
-        )
-    return clamped_inverse(H)
+    return clamped_inverse(gradient_hessian(coords.objective, v))
 
 
 def halton_student_t(mean, cov, n, seed):
@@ -429,10 +420,11 @@ class HyperparameterCoordinates:
 
 
 def _posterior_mode(coords, n_restarts, noise, seed, progress, start=None):
-    """The mode of the module-2 posterior: L-BFGS-B from the default start
-    (or ``start``, coordinates of an earlier mode) and ``n_restarts`` random
-    ones (kernel and noise uniform in their bounds); the best
-    ``scipy.optimize`` result."""
+    """The mode of the module-2 posterior: L-BFGS-B, preconditioned when it
+    crawls (:func:`~skmba._core.search.preconditioned_minimum`), from the
+    default start (or ``start``, coordinates of an earlier mode) and
+    ``n_restarts`` random ones (kernel and noise uniform in their bounds);
+    the best ``scipy.optimize`` result."""
     fit, k, q = coords.fit, coords.k, coords.q
     rng = np.random.default_rng(seed)
     p0 = fit.start()
@@ -448,7 +440,7 @@ def _posterior_mode(coords, n_restarts, noise, seed, progress, start=None):
     with progress.bar(len(starts), "module 2: discrepancy", unit="start") as bar:
         report = start_reporter(progress, bar, "module 2")
         for j, v0 in enumerate(starts, 1):
-            res = optimize.minimize(coords.objective, v0, jac=True, method="L-BFGS-B")
+            res = preconditioned_minimum(coords.objective, v0)
             report(j, len(starts), float(res.fun))
             if best is None or res.fun < best.fun:
                 best = res
