@@ -20,7 +20,7 @@ HESSIAN_STEP = 1e-4
 #: whitened by the Hessian where it stands. On the bridge year's module 2
 #: (15 hyperparameters), 156-213 evaluations to within 0.03 nats of the
 #: mode against 629-951 that stopped 1.7-2.5 nats short of it; the
-#: searches of the cantilever cases converge in 20-50 and are the same as
+#: searches of the cantilever cases converge in 9-50 and are the same as
 #: before, bit for bit (docs/internals.rst).
 PRECONDITION_AFTER = 60
 #: The whitening's smallest curvature, relative to its largest: a condition

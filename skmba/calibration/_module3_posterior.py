@@ -152,8 +152,9 @@ class LogPosterior:
         )
 
     def batch(self, theta):
-        """:meth:`__call__` at the rows of ``theta`` (m, r) in user units:
-        (m,), the likelihoods inside the prior's support evaluated together."""
+        """:meth:`__call__` at the rows of ``theta`` (m, r; one theta of
+        shape (r,) is one row) in user units: (m,), the likelihoods inside
+        the prior's support evaluated together."""
         return self._log_posterior_rows(
             np.atleast_2d(theta), self.model.log_likelihoods
         )
