@@ -555,7 +555,7 @@ class ModularBayesCalibrator(
         check_simulation_design(
             X, prior, sims, getattr(self, "feature_names_in_", None)
         )
-        check_responses(X, Y, sims.X, sims.y, responses, rows)
+        check_responses(X, Y, sims.X, sims.theta, sims.y, responses, rows)
         result = run_modules(
             settings, readings, sims, prior, module2_spec, seeds[1:], progress, warm
         )

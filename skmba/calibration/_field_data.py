@@ -226,7 +226,8 @@ _PRIOR_MASS_WARNING = 0.02
 #: the same inputs) by more than this factor, either way, are in other units.
 MAGNITUDE_FACTOR = 5.0
 #: A field response whose spread (interquartile range) is below this share
-#: of its simulations' over the same inputs varies far less than it can.
+#: of what the design variables move its simulations by over the same
+#: inputs varies far less than it can.
 SPREAD_SHARE = 0.05
 #: A reading this many widths of the simulated range beyond it is a single
 #: slip or a logger's "no reading" code.
@@ -237,7 +238,7 @@ LOGGER_CODES = (-99999.0, -9999.0, -999.0, -32768.0, 32767.0, 9999.0, 99999.0)
 MIN_NEAR_RUNS = 10
 
 
-def check_responses(X, Y, X_sim, y_sim, names=None, rows=None):
+def check_responses(X, Y, X_sim, theta_sim, y_sim, names=None, rows=None):
     """Each field response against its simulations, on both sides.
 
     Warns (:class:`~skmba.exceptions.FieldDataWarning`), naming the response
@@ -254,8 +255,11 @@ def check_responses(X, Y, X_sim, y_sim, names=None, rows=None):
       simulations over the same inputs by more than :data:`MAGNITUDE_FACTOR`
       either way, or, for simulations of both signs, lie farther beyond
       their range than its width (units),
-    * spread less than :data:`SPREAD_SHARE` of the simulations over the same
-      inputs (a stuck or slipping sensor, or units).
+    * spread less than :data:`SPREAD_SHARE` of what the design variables
+      move the simulations by over the field inputs (a stuck or slipping
+      sensor, or units): the ``x`` part of a least-squares plane of the
+      runs in ``[x, theta]``, so that the spread of the simulations over the
+      prior of ``theta`` does not count (the readings come from one theta).
 
     "The same inputs" are the runs whose design variables lie in the box of
     the field inputs (when there are :data:`MIN_NEAR_RUNS` of them; else
@@ -266,10 +270,11 @@ def check_responses(X, Y, X_sim, y_sim, names=None, rows=None):
     --------
     >>> import warnings
     >>> X_sim = np.linspace(0.0, 1.0, 20)[:, None]
+    >>> theta_sim = np.tile([2.0, 3.0], 10)[:, None]
     >>> y_sim = 1.0 + X_sim
     >>> with warnings.catch_warnings(record=True) as caught:
     ...     warnings.simplefilter("always")
-    ...     check_responses(X_sim[::2], y_sim[::2] / 1000, X_sim, y_sim)
+    ...     check_responses(X_sim[::2], y_sim[::2] / 1000, X_sim, theta_sim, y_sim)
     >>> "units" in str(caught[0].message)
     True
     """
@@ -294,10 +299,12 @@ def check_responses(X, Y, X_sim, y_sim, names=None, rows=None):
                 FieldDataWarning,
             )
             continue
-        local = y_sim[near, j] if near.sum() >= MIN_NEAR_RUNS else sims
-        cause = _scale_or_sign(obs, local[np.isfinite(local)], sims)
+        runs = near & np.isfinite(y_sim[:, j])
+        local = y_sim[runs, j] if near.sum() >= MIN_NEAR_RUNS else sims
+        cause = _scale_or_sign(obs, local, sims)
         if cause is None and near.sum() >= MIN_NEAR_RUNS:
-            cause = _spread(obs, local[np.isfinite(local)])
+            moved = _input_spread(X[finite], X_sim[runs], theta_sim[runs], local)
+            cause = _spread(obs, moved)
         if cause is not None:
             warn(f"The observations of {label} {cause}", FieldDataWarning)
 
@@ -387,16 +394,39 @@ def _scale_or_sign(obs, local, sims):
     return None
 
 
-def _spread(obs, local):
-    """The message of a response that varies far less than its simulations
-    over the same inputs, or None."""
-    q_obs, q_sim = (np.subtract(*np.percentile(a, [75, 25])) for a in (obs, local))
-    if obs.size < 5 or q_sim <= 0 or q_obs >= SPREAD_SHARE * q_sim:
+def _input_spread(X, X_runs, theta_runs, y_runs):
+    """The interquartile range over the field inputs ``X`` of what the design
+    variables move the simulations ``y_runs`` by: the ``x`` part of their
+    least-squares plane in ``[x, theta]`` (standardised columns), at ``X``.
+
+    With theta in the plane, the runs' spread over the prior of theta is not
+    counted: the readings of one structure come from one theta (measured on
+    the bridge year: docs/monitoring_data.rst).
+    """
+    Z = np.column_stack([X_runs, theta_runs])
+    mean, sd = Z.mean(axis=0), Z.std(axis=0)
+    sd[sd == 0] = 1.0
+    A = np.column_stack([np.ones(len(Z)), (Z - mean) / sd])
+    slopes = np.linalg.lstsq(A, y_runs, rcond=None)[0][1:] / sd
+    return _iqr(X @ slopes[: X.shape[1]])
+
+
+def _iqr(a):
+    return np.subtract(*np.percentile(a, [75, 25]))
+
+
+def _spread(obs, moved):
+    """The message of a response that varies far less than the design
+    variables move its simulations (``moved``, :func:`_input_spread`), or
+    None."""
+    q_obs = _iqr(obs)
+    if obs.size < 5 or moved <= 0 or q_obs >= SPREAD_SHARE * moved:
         return None
     return (
-        f"spread {q_obs / q_sim:.2g} times as much as its simulations over the "
-        "same inputs (interquartile ranges): a sensor stuck or slipping, or "
-        "other units? Check the readings and their units against y_sim."
+        f"spread {q_obs / moved:.2g} times as much as the design variables move "
+        "its simulations over the same inputs (interquartile ranges): a sensor "
+        "stuck or slipping, or other units? Check the readings and their units "
+        "against y_sim."
     )
 
 

@@ -14,7 +14,7 @@ import pytest
 
 from skmba import ModularBayesCalibrator
 from skmba.calibration._field_data import check_responses, check_simulation_design
-from skmba.datasets import make_cantilever, make_truss_bridge
+from skmba.datasets import make_bridge_monitoring, make_cantilever, make_truss_bridge
 from skmba.exceptions import FieldDataWarning
 from skmba.priors._theta import check_prior
 from validation.suite import registry
@@ -28,7 +28,7 @@ def _field_warnings(y, X=None, data=DATA, names=None):
     X = data.X_obs if X is None else X
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        check_responses(X, y, data.X_sim, data.y_sim, names)
+        check_responses(X, y, data.X_sim, data.theta_sim, data.y_sim, names)
     return [str(w.message) for w in caught if w.category is FieldDataWarning]
 
 
@@ -96,10 +96,11 @@ def test_a_slip_below_the_simulated_range_of_a_two_signed_response():
     varies next to its simulations."""
     rng = np.random.default_rng(0)
     X_sim = rng.uniform(-10, 30, size=(60, 1))
-    y_sim = 40.0 * X_sim + rng.normal(0, 5, size=(60, 1))  # microstrain
+    theta_sim = rng.uniform(0.8, 1.2, size=(60, 1))
+    y_sim = 40.0 * theta_sim * X_sim + rng.normal(0, 5, size=(60, 1))  # microstrain
     X = np.linspace(-5, 25, 30)[:, None]
     y = 38.0 * X + rng.normal(0, 5, size=(30, 1))
-    data = type("D", (), {"X_sim": X_sim, "y_sim": y_sim})
+    data = type("D", (), {"X_sim": X_sim, "theta_sim": theta_sim, "y_sim": y_sim})
     assert _field_warnings(y, X, data) == []
     (message,) = _field_warnings(y * 1e-6, X, data)
     assert "spread" in message and "units" in message
@@ -139,8 +140,38 @@ def test_clean_reference_problems_stay_silent(label, case):
         sims = type("S", (), {"X": X_sim, "theta": theta_sim, "y": y_sim})
         with warnings.catch_warnings():
             warnings.simplefilter("error", FieldDataWarning)
-            check_responses(X, y, X_sim, np.reshape(y_sim, (len(X_sim), -1)))
+            check_responses(X, y, X_sim, theta_sim, np.reshape(y_sim, (len(X_sim), -1)))
             check_simulation_design(X, check_prior(prior), sims)
+
+
+BRIDGE_WINDOWS = {"a week": slice(0, 168), "January": slice(0, 744), "the year": None}
+
+
+@pytest.mark.parametrize("window", sorted(BRIDGE_WINDOWS))
+def test_bridge_frequencies_that_temperature_moves_little_stay_silent(window):
+    """The bridge year's prior moves its frequencies 10-50 times as much as
+    a year's temperatures do: clean readings spread 0.02-0.3 times as much
+    as the runs over the same temperatures, and must not be taken for a
+    stuck sensor (seeds 0-4)."""
+    rows = BRIDGE_WINDOWS[window] or slice(None)
+    for seed in range(5):
+        year = make_bridge_monitoring(random_state=seed)
+        X, y = year.X_obs[rows], year.y_obs[rows]
+        assert _field_warnings(y, X, year) == [], (seed, window)
+
+
+def test_a_frequency_locked_at_one_mode_estimate_is_named_on_the_bridge():
+    """A mode tracker that locks on one value (readings within 1 mHz of it,
+    a year long) where the year's temperatures move the model's f3 by about
+    0.6 Hz (interquartile ranges): the spread check names f3, and only f3."""
+    year = make_bridge_monitoring(random_state=0)
+    y = year.y_obs.copy()
+    jitter = np.random.default_rng(1).uniform(-1e-3, 1e-3, len(y))
+    y[:, 2] = np.where(np.isfinite(y[:, 2]), np.nanmedian(y[:, 2]) + jitter, np.nan)
+    names = list(year.response_names)
+    (message,) = _field_warnings(y, year.X_obs, year, names)
+    assert "response 'f3' (column 2 of y)" in message
+    assert re.search(r"spread 0\.0\d+ times as much .* stuck", message), message
 
 
 def test_the_truss_gauges_whose_reality_reverses_the_model_are_named():

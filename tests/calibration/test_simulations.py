@@ -188,7 +188,8 @@ def test_a_unit_slip_is_named_by_the_response_name():
         r"outside the range of its simulations",
     ) as record:
         X_sim = np.linspace(0.0, 1.0, 20)[:, None]
-        check_responses(X_sim[::2], y, X_sim, y_sim, ["tip", "energy"])
+        theta_sim = np.tile([2.0, 3.0], 10)[:, None]
+        check_responses(X_sim[::2], y, X_sim, theta_sim, y_sim, ["tip", "energy"])
     assert len(record) == 1
 
 
