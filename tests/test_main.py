@@ -102,6 +102,7 @@ def test_parser_defaults_and_invalid_options():
         main([])
 
 
+@pytest.mark.slow  # 25-40 s: a fit, eight weeks judged, FE Jacobians
 def test_monitoring_demo_alarms_after_the_damage_only(tmp_path):
     pytest.importorskip("matplotlib")
     out = tmp_path / "monitoring"

@@ -114,22 +114,24 @@ def _spied(monkeypatch):
 def test_an_update_searches_module_2_from_the_last_mode_until_the_data_grow(
     monkeypatch,
 ):
-    """A day added to two months starts module 2's search at the last mode
-    alone; its restarts run again once the data hold a tenth more values
-    than when they last ran (the rest of March: half as many again)."""
+    """A day added to a fortnight starts module 2's search at the last mode
+    alone (a fifteenth more values); its restarts run again once the data
+    hold a tenth more values than when they last ran (the rest of January:
+    more than as many again)."""
     restarts = _spied(monkeypatch)
     month, day = FRAME.index.month, FRAME.index.day
-    two = quiet(_calibrator().partial_fit, X[month <= 2], Y[month <= 2], **SIMS)
+    fortnight = (month == 1) & (day <= 14)
+    two = quiet(_calibrator().partial_fit, X[fortnight], Y[fortnight], **SIMS)
     assert restarts == [2, 2]  # the fit's two passes
     searched = two._modules.searched
-    assert searched == int(np.isfinite(Y[month <= 2].to_numpy()).sum())
-    first = (month == 3) & (day == 1)
+    assert searched == int(np.isfinite(Y[fortnight].to_numpy()).sum())
+    first = (month == 1) & (day == 15)
     quiet(two.partial_fit, X[first], Y[first])
     assert restarts[2:] == [0] and two._modules.searched == searched
-    rest = (month == 3) & (day > 1)
+    rest = (month == 1) & (day > 15)
     quiet(two.partial_fit, X[rest], Y[rest])
     assert restarts[3:] == [2]
-    assert two._modules.searched == int(np.isfinite(Y[month <= 3].to_numpy()).sum())
+    assert two._modules.searched == int(np.isfinite(Y[month == 1].to_numpy()).sum())
 
 
 @pytest.mark.slow

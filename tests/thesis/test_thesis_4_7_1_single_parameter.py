@@ -24,7 +24,8 @@ from ._helpers import (
 )
 
 
-@pytest.mark.parametrize("seed", [0, 1, 2])
+# Seeds 0 and 1 in the default run, all three with the slow marker.
+@pytest.mark.parametrize("seed", [0, 1, pytest.param(2, marks=pytest.mark.slow)])
 def test_471_single_parameter(seed):
     data = make_cantilever(n_simulations=70, n_observations=25, random_state=seed)
     cal = fit(data)

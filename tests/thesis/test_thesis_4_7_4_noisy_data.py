@@ -17,7 +17,15 @@ from ._helpers import (
 )
 
 
-@pytest.mark.parametrize("seed", [0, 1, 2])
+# Seed 0 in the default run, all three with the slow marker.
+@pytest.mark.parametrize(
+    "seed",
+    [
+        0,
+        pytest.param(1, marks=pytest.mark.slow),
+        pytest.param(2, marks=pytest.mark.slow),
+    ],
+)
 def test_474_noisy_data(seed):
     data = make_cantilever(
         n_simulations=100, n_observations=35, snr_db=18.0, random_state=seed

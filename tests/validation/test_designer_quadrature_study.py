@@ -4,11 +4,13 @@ docs/sensor_design.rst says of the 33 stage-1 nodes at 12 temperatures
 replicates against 65 nodes."""
 
 import numpy as np
+import pytest
 
 import skmba.sensor_design._replicates as replicates_module
 from validation.studies.designer_quadrature import _fit, compare
 
 
+@pytest.mark.slow
 def test_more_stage1_nodes_barely_move_the_scores_at_12_temperatures():
     before = dict(replicates_module.PRIOR_NODES)
     default, _ = _fit(12, 33, 4, 1)

@@ -4,6 +4,7 @@ chains' effective draws per evaluation and agrees with them; from a
 proposal that misses the posterior, the rule refuses it."""
 
 import numpy as np
+import pytest
 import threadpoolctl
 
 from validation.studies.importance_second_pass import (
@@ -15,6 +16,7 @@ from validation.studies.importance_second_pass import (
 )
 
 
+@pytest.mark.slow
 def test_importance_agrees_with_the_chains_at_a_third_of_the_cost():
     for seed in (0, 1):
         r = one("sbc_a2", seed, 500, 1500)
