@@ -534,12 +534,18 @@ class _GaussianMixture:
 
     def __init__(self):
         self.calls = {"labelled": 0, "components": 0, "batch": 0}
+        # frozen once: building one per call (scipy formats its docstring)
+        # took 0.2 ms, most of this toy target's cost over 20,000 steps
+        self._components = [
+            stats.multivariate_normal(m, c)
+            for m, c in zip(self.means, self.covs, strict=True)
+        ]
 
     def _joint(self, thetas):
         return np.column_stack(
             [
-                np.log(w) + stats.multivariate_normal(m, c).logpdf(thetas)
-                for w, m, c in zip(self.weights, self.means, self.covs, strict=True)
+                np.log(w) + component.logpdf(thetas)
+                for w, component in zip(self.weights, self._components, strict=True)
             ]
         )
 
