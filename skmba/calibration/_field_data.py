@@ -401,9 +401,12 @@ def _input_spread(X, X_runs, theta_runs, y_runs):
 
     With theta in the plane, the runs' spread over the prior of theta is not
     counted: the readings of one structure come from one theta (measured on
-    the bridge year: docs/monitoring_data.rst).
+    the bridge year: docs/monitoring_data.rst). None with fewer than two
+    runs per coefficient of the plane, whose slopes would be noise.
     """
     Z = np.column_stack([X_runs, theta_runs])
+    if len(Z) < 2 * (1 + Z.shape[1]):
+        return None
     mean, sd = Z.mean(axis=0), Z.std(axis=0)
     sd[sd == 0] = 1.0
     A = np.column_stack([np.ones(len(Z)), (Z - mean) / sd])
@@ -417,10 +420,12 @@ def _iqr(a):
 
 def _spread(obs, moved):
     """The message of a response that varies far less than the design
-    variables move its simulations (``moved``, :func:`_input_spread`), or
-    None."""
+    variables move its simulations (``moved``, :func:`_input_spread`; None:
+    not known), or None."""
+    if moved is None or moved <= 0:
+        return None
     q_obs = _iqr(obs)
-    if obs.size < 5 or moved <= 0 or q_obs >= SPREAD_SHARE * moved:
+    if obs.size < 5 or q_obs >= SPREAD_SHARE * moved:
         return None
     return (
         f"spread {q_obs / moved:.2g} times as much as the design variables move "

@@ -13,7 +13,11 @@ import pandas as pd
 import pytest
 
 from skmba import ModularBayesCalibrator
-from skmba.calibration._field_data import check_responses, check_simulation_design
+from skmba.calibration._field_data import (
+    _input_spread,
+    check_responses,
+    check_simulation_design,
+)
 from skmba.datasets import make_bridge_monitoring, make_cantilever, make_truss_bridge
 from skmba.exceptions import FieldDataWarning
 from skmba.priors._theta import check_prior
@@ -172,6 +176,17 @@ def test_a_frequency_locked_at_one_mode_estimate_is_named_on_the_bridge():
     (message,) = _field_warnings(y, year.X_obs, year, names)
     assert "response 'f3' (column 2 of y)" in message
     assert re.search(r"spread 0\.0\d+ times as much .* stuck", message), message
+
+
+def test_the_plane_needs_two_runs_per_coefficient():
+    """One design variable and five parameters: a plane of 7 coefficients,
+    whose slopes are noise on 13 runs (no spread check) and known on 14."""
+    rng = np.random.default_rng(0)
+    X, theta = rng.uniform(size=(14, 1)), rng.uniform(size=(14, 5))
+    y = 2.0 * X[:, 0] + theta.sum(axis=1)
+    assert _input_spread(X, X[:13], theta[:13], y[:13]) is None
+    moved = _input_spread(X, X, theta, y)
+    assert moved == pytest.approx(2.0 * np.subtract(*np.percentile(X, [75, 25])))
 
 
 def test_the_truss_gauges_whose_reality_reverses_the_model_are_named():
