@@ -19,7 +19,9 @@ file                               holds
 ``_fitted.py``                     the fitted attributes of a run of
                                    modules 1-3
 ``_field_data.py``                 checks of the field data, alone and
-                                   against the simulations
+                                   against the simulations and the prior
+``_response_checks.py``            each field response against its
+                                   simulations (units, sign, stuck sensors)
 ``_field_replicates.py``           readings at one input as their mean and
                                    count (``bin_width``), the batches of
                                    ``partial_fit``

@@ -27,7 +27,6 @@ from skmba._core.progress import Progress
 from skmba._core.threads import blas_threads
 from skmba._core.validation import int_seed, seed_sequence, validate_parameter_table
 from skmba.calibration._field_data import (
-    check_responses,
     check_same_index,
     check_simulation_design,
     field_order,
@@ -49,6 +48,7 @@ from skmba.calibration._module3_density import PosteriorDensityMixin
 from skmba.calibration._module3_identifiability import warn_if_confounded
 from skmba.calibration._module4_prediction import CalibratedPredictionMixin
 from skmba.calibration._pipeline import WarmStart, run_modules
+from skmba.calibration._response_checks import check_responses
 from skmba.calibration._sensitivity import PriorSensitivityMixin
 from skmba.calibration._settings import PARAMETER_TABLE, CalibrationSettings
 from skmba.calibration._simulations import kept_simulator_runs

@@ -13,11 +13,8 @@ import pandas as pd
 import pytest
 
 from skmba import ModularBayesCalibrator
-from skmba.calibration._field_data import (
-    _input_spread,
-    check_responses,
-    check_simulation_design,
-)
+from skmba.calibration._field_data import check_simulation_design
+from skmba.calibration._response_checks import _input_spread, check_responses
 from skmba.datasets import make_bridge_monitoring, make_cantilever, make_truss_bridge
 from skmba.exceptions import FieldDataWarning
 from skmba.priors._theta import check_prior

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from skmba import ModularBayesCalibrator
-from skmba.calibration._field_data import check_responses
+from skmba.calibration._response_checks import check_responses
 from skmba.calibration._simulations import (
     SimulationData,
     SimulationFailure,
