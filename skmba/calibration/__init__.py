@@ -45,6 +45,8 @@ file                               holds
 ``_module3_likelihood.py``         module 3: the global model (Eq. 4.30),
                                    also for a stack of thetas at once
 ``_module3_mixture.py``            module 3 over module 2's draws
+``_module3_low_rank.py``           the same through a low-rank model term
+                                   (the determinant lemma), for batches
 ``_module3_posterior.py``          the posterior of theta (``sampler``)
 ``_module3_density.py``            the ``log_posterior`` method
 ``_module3_identifiability.py``    ``identifiability_`` and its warning

@@ -24,6 +24,11 @@ from scipy import special
 from skmba._core.linalg import FactorizationError, n_workers
 from skmba._core.threads import BlasTask, stack_map
 from skmba.calibration._module3_likelihood import CONDITIONAL_BYTES, stack_chunks
+from skmba.calibration._module3_low_rank import (
+    fixed_factors,
+    low_rank_log_likelihoods,
+    model_term_factor,
+)
 
 #: A module-2 draw whose weight ``p(phi_k | theta, data)`` stays below this
 #: around the posterior of theta is left out of the sampler's mixture
@@ -32,6 +37,10 @@ IDLE_WEIGHT = 1e-10
 #: Thetas, evenly thinned from a run's draws, at which the draws left out
 #: are found or checked idle (the chains' check, an update's reweighting).
 IDLE_CHECK_THETAS = 100
+#: Thetas of a batch from which the mixture tries the low-rank model term
+#: (:mod:`skmba.calibration._module3_low_rank`): below, its Python steps per
+#: batch cost more than the factorisations they save.
+LOW_RANK_MIN_THETAS = 16
 #: Thetas per joblib task of :meth:`ModelMixture.spread_component_log_likelihoods`:
 #: fixed by the problem, so that the tasks, hence the bits, do not depend on
 #: ``n_jobs``.
@@ -108,7 +117,11 @@ class ModelMixture:
         The emulator given the simulations is computed once per theta for
         all draws, and the Schur complements of every theta and draw are
         factored as one stack
-        (:func:`~skmba.calibration._module3_likelihood.schur_log_likelihoods`).
+        (:func:`~skmba.calibration._module3_likelihood.schur_log_likelihoods`);
+        a batch of :data:`LOW_RANK_MIN_THETAS` or more whose model terms
+        have a small numerical rank goes through the determinant lemma
+        instead (:mod:`skmba.calibration._module3_low_rank`; the same values
+        within ``m`` times its ``LOW_RANK_TOL`` nats).
 
         Raises
         ------
@@ -164,12 +177,18 @@ class ModelMixture:
             self._noise_floor = min(mdl.noise_floor for mdl in self.models)
             # Each draw's factor of repeated readings (zeros without them).
             self._factors = np.array([mdl.replicate_factor for mdl in self.models])
+            self._fixed = None  # their factors, made for the low-rank path
         K, m = self._S_fixed.shape[:2]
         per_theta = K if labels is None else 1
         out = np.empty((len(thetas), per_theta))
         for group in stack_chunks(len(thetas), 1, m, 0, CONDITIONAL_BYTES):
             cond, terms = base.conditionals(thetas[group])
             rows = base.field_rows(cond)
+            if labels is None and len(terms) >= LOW_RANK_MIN_THETAS:
+                values = self._low_rank(terms, rows)
+                if values is not None:
+                    out[group] = values
+                    continue
 
             def factor(chunk, rows=rows, terms=terms, start=group.start):
                 Z, T, B = rows[chunk], terms[chunk], chunk.stop - chunk.start
@@ -192,6 +211,35 @@ class ModelMixture:
         if labels is None:
             return self.log_weights + self._factors + out
         return self.log_weights[labels] + self._factors[labels] + out[:, 0]
+
+    def _low_rank(self, terms, rows):
+        """Every draw at each theta of ``terms`` through a low-rank model
+        term (:mod:`skmba.calibration._module3_low_rank`), or None where it
+        does not apply (a model term of high rank, a rank-deficient
+        regression or field rows of lower rank: the dense path decides)."""
+        if self._fixed is None:
+            try:
+                self._fixed = fixed_factors(self._S_fixed)
+            except np.linalg.LinAlgError:  # a draw's fixed part is not
+                self._fixed = False  # positive definite: dense, always
+        if self._fixed is False:
+            return None
+        U = model_term_factor(terms, self._noise_floor)
+        if U is None:
+            return None
+        factors, log_dets = self._fixed
+        halves = np.array_split(np.arange(len(factors)), 2)
+        try:
+            # the draws on the block's idle BLAS threads (same bits)
+            parts = stack_map(
+                lambda draws: low_rank_log_likelihoods(
+                    factors, log_dets, U, rows, self.base, draws
+                ),
+                [h for h in halves if h.size],
+            )
+        except (np.linalg.LinAlgError, FactorizationError):
+            return None
+        return np.fmax.reduce(parts)
 
     def log_likelihood(self, theta):
         """``log sum_k w_k p(data | theta, phi_k)``."""

@@ -1,0 +1,130 @@
+"""Module 3 through a low-rank model term: the determinant lemma's values
+are the dense path's, where the emulator knows the simulator well at the
+field points, and the dense path takes over where it does not."""
+
+import numpy as np
+import pytest
+from scipy import special
+
+import skmba.calibration._module3_mixture as mixture_module
+from skmba import MultiResponseGP
+from skmba.calibration._module1_emulator import Emulator
+from skmba.calibration._module2_posterior import (
+    DiscrepancyComponent,
+    HyperposteriorDraws,
+)
+from skmba.calibration._module3_likelihood import GlobalModel
+from skmba.calibration._module3_low_rank import LOW_RANK_TOL, model_term_factor
+from skmba.calibration._module3_mixture import LOW_RANK_MIN_THETAS, ModelMixture
+from skmba.kernels import Gauss
+from tests.conftest import discrepancy
+
+
+def _draws(K=4, seed=0):
+    rng = np.random.default_rng(seed)
+    components = []
+    for _ in range(K):
+        A = rng.normal(size=(2, 2))
+        components.append(
+            DiscrepancyComponent(
+                Gauss(roughness=rng.uniform(0.5, 3.0)),
+                0.05 * (A @ A.T + np.eye(2)),
+                rng.uniform(0.005, 0.05, 2),
+                "constant",
+            )
+        )
+    log_w = rng.normal(size=K)
+    log_w -= special.logsumexp(log_w)
+    noise_mean = np.exp(log_w) @ np.array([c.noise for c in components])
+    return HyperposteriorDraws(None, components, log_w, None, noise_mean, float(K))
+
+
+@pytest.fixture(scope="module")
+def smooth_mixture():
+    """A smooth emulator of 81 runs on a grid of [x, theta], 40 field points
+    (m = 80): its model term has a small numerical rank (12)."""
+    grid = np.linspace(-1, 1, 9)
+    X_m = np.array([(a, b) for a in grid for b in grid])
+    Y_m = np.column_stack([np.sin(2 * X_m[:, 0]) * X_m[:, 1], np.cos(X_m.sum(axis=1))])
+    gp = MultiResponseGP(
+        Gauss(roughness=[1.0, 1.0]),
+        regression="linear",
+        alpha=1e-8,
+        optimizer=None,
+        normalize_y=False,
+    ).fit(X_m, Y_m)
+    X_e = np.linspace(-0.9, 0.9, 40)[:, None]
+    Y_e = np.column_stack([np.sin(2 * X_e[:, 0]) * 0.3, np.cos(X_e[:, 0] + 0.3)])
+    Y_e = Y_e + 0.01 * np.random.default_rng(1).standard_normal(Y_e.shape)
+    gm = GlobalModel(
+        Emulator(gp, X_m, Y_m, "linear"),
+        X_e,
+        Y_e,
+        discrepancy(0.1 * np.eye(2), np.array([0.01, 0.02])),
+    )
+    return ModelMixture(gm, _draws())
+
+
+def _dense(mix, thetas, monkeypatch):
+    with monkeypatch.context() as patch:
+        patch.setattr(mixture_module, "LOW_RANK_MIN_THETAS", len(thetas) + 1)
+        return mix.batch_component_log_likelihoods(thetas)
+
+
+def test_the_low_rank_values_are_the_dense_ones(smooth_mixture, monkeypatch):
+    """A batch of 40 thetas: the model term's rank is at most a quarter of
+    m, and every (theta, draw) value is the dense path's within m times
+    LOW_RANK_TOL nats (8e-5): what is dropped, below the threshold on every
+    remaining diagonal entry, holds at most m thresholds of trace, over
+    Schur complements no smaller than the noise floor (measured: 2.9e-6).
+    A wrong term of the determinant lemma or of Woodbury's identity would
+    be off by nats."""
+    mix = smooth_mixture
+    thetas = np.linspace(-0.95, 0.95, 40)[:, None]
+    _, terms = mix.base.conditionals(thetas)
+    U = model_term_factor(terms, min(m.noise_floor for m in mix.models))
+    assert U is not None and U.shape[2] <= terms.shape[1] // 4
+    used = []
+    original = mixture_module.low_rank_log_likelihoods
+
+    def spy(*args):
+        used.append(True)
+        return original(*args)
+
+    monkeypatch.setattr(mixture_module, "low_rank_log_likelihoods", spy)
+    low = mix.batch_component_log_likelihoods(thetas)
+    assert used
+    dense = _dense(mix, thetas, monkeypatch)
+    bound = terms.shape[1] * LOW_RANK_TOL
+    assert np.max(np.abs(low - dense)) <= bound
+    # and the mixture's own values, one theta at a time (the dense path)
+    single = [mix.component_log_likelihoods(t) for t in thetas[::13]]
+    np.testing.assert_allclose(low[::13], single, rtol=0, atol=bound)
+
+
+def test_a_model_term_of_high_rank_is_left_to_the_dense_path(problem, monkeypatch):
+    """The rough Exp emulator of 14 runs (the shared problem, m = 12): no
+    factor of rank m / 4 holds its model term, and the batch's values are
+    the dense path's to the bit."""
+    mix = ModelMixture(problem[1], _draws())
+    thetas = np.linspace(-0.9, 0.9, LOW_RANK_MIN_THETAS)[:, None]
+    _, terms = mix.base.conditionals(thetas)
+    assert model_term_factor(terms, 0.005) is None
+    np.testing.assert_array_equal(
+        mix.batch_component_log_likelihoods(thetas), _dense(mix, thetas, monkeypatch)
+    )
+
+
+def test_the_factor_holds_the_term_to_its_threshold():
+    """A term of rank 3 plus a part of rank 40 below the threshold: U U'
+    differs from it by no more than that part, and the rank is 3."""
+    rng = np.random.default_rng(0)
+    A = rng.normal(size=(2, 40, 3))
+    small = rng.normal(size=(2, 40, 40))
+    floor = 1e-3
+    tiny = 0.1 * LOW_RANK_TOL * floor / 40
+    terms = A @ np.swapaxes(A, 1, 2) + tiny * small @ np.swapaxes(small, 1, 2) / 40
+    U = model_term_factor(terms, floor)
+    assert U.shape == (2, 40, 3)
+    gap = np.linalg.eigvalsh(terms - U @ np.swapaxes(U, 1, 2))
+    assert np.all(np.abs(gap) <= LOW_RANK_TOL * floor)
