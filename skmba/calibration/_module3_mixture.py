@@ -217,7 +217,7 @@ class ModelMixture:
         term (:mod:`skmba.calibration._module3_low_rank`), or None where it
         does not apply (a model term of high rank, a rank-deficient
         regression or field rows of lower rank: the dense path decides)."""
-        if self._fixed is None:
+        if getattr(self, "_fixed", None) is None:  # (pickles of before)
             try:
                 self._fixed = fixed_factors(self._S_fixed)
             except np.linalg.LinAlgError:  # a draw's fixed part is not
