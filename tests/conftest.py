@@ -4,10 +4,15 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from scipy import special
 
 from skmba import MultiResponseGP
 from skmba._core.regression import regression_basis
 from skmba.calibration._module1_emulator import Emulator
+from skmba.calibration._module2_posterior import (
+    DiscrepancyComponent,
+    HyperposteriorDraws,
+)
 from skmba.calibration._module3_likelihood import GlobalModel
 from skmba.kernels import Exp, Gauss
 
@@ -31,6 +36,27 @@ def discrepancy(sigma2_d, noise):
         sigma2=sigma2_d,
         noise=noise,
     )
+
+
+def mixture_draws(K=4, seed=0):
+    """K module-2 draws of random size, roughness and noise, with random
+    weights: a mixture for the global model of ``problem`` (q = 2)."""
+    rng = np.random.default_rng(seed)
+    comps = []
+    for _ in range(K):
+        A = rng.normal(size=(2, 2))
+        comps.append(
+            DiscrepancyComponent(
+                Gauss(roughness=rng.uniform(0.5, 3.0)),
+                0.05 * (A @ A.T + np.eye(2)),
+                rng.uniform(0.005, 0.05, 2),
+                "constant",
+            )
+        )
+    log_w = rng.normal(size=K)
+    log_w = log_w - special.logsumexp(log_w)
+    noise_mean = np.exp(log_w) @ np.array([c.noise for c in comps])
+    return HyperposteriorDraws(None, comps, log_w, None, noise_mean, float(K))
 
 
 @pytest.fixture(scope="session")

@@ -91,7 +91,8 @@ def fixed_factors(S_fixed):
 
 
 def low_rank_log_likelihoods(factors, log_dets, U, Z, model, draws=None):
-    """Eq. 4.30 at every (theta, draw) with ``S_k = F_k + U U'``: (B, K).
+    """Eq. 4.30 at every (theta, draw) with ``S_k = F_k + U U'``: (B, K),
+    or (B, len(draws)).
 
     Parameters
     ----------
@@ -104,8 +105,9 @@ def low_rank_log_likelihoods(factors, log_dets, U, Z, model, draws=None):
     model : GlobalModel
         The simulation block (``top``, ``rss_top_perp``, ``log_det_A``)
         and the number of data.
-    draws : iterable of int, default=None
-        The draws to evaluate (None: all); the other columns are NaN.
+    draws : sequence of int, default=None
+        The draws to evaluate, in this order (None: all): the columns of
+        the result.
 
     Raises
     ------
@@ -118,9 +120,10 @@ def low_rank_log_likelihoods(factors, log_dets, U, Z, model, draws=None):
     B, m, rho = U.shape
     c = Z.shape[2]
     rhs = np.concatenate([U, Z], axis=2).transpose(1, 0, 2).reshape(m, -1)
-    out = np.full((B, len(factors)), np.nan)
+    draws = range(len(factors)) if draws is None else draws
+    out = np.empty((B, len(draws)))
     identity = np.eye(rho)
-    for k in range(len(factors)) if draws is None else draws:
+    for j, k in enumerate(draws):
         W = linalg.solve_triangular(factors[k], rhs, lower=True, check_finite=False)
         W = W.reshape(m, B, rho + c).transpose(1, 0, 2)
         gram = np.swapaxes(W, 1, 2) @ W
@@ -131,7 +134,7 @@ def low_rank_log_likelihoods(factors, log_dets, U, Z, model, draws=None):
         )
         # F's trailing block G has G G' = Z' S_k^-1 Z: G' whitens the rows.
         whitened = np.swapaxes(F[:, rho:, rho:], 1, 2)
-        out[:, k] = regression_log_likelihoods(
+        out[:, j] = regression_log_likelihoods(
             log_det_S,
             whitened,
             model.top,

@@ -4,39 +4,15 @@ field points, and the dense path takes over where it does not."""
 
 import numpy as np
 import pytest
-from scipy import special
 
 import skmba.calibration._module3_mixture as mixture_module
 from skmba import MultiResponseGP
 from skmba.calibration._module1_emulator import Emulator
-from skmba.calibration._module2_posterior import (
-    DiscrepancyComponent,
-    HyperposteriorDraws,
-)
 from skmba.calibration._module3_likelihood import GlobalModel
 from skmba.calibration._module3_low_rank import LOW_RANK_TOL, model_term_factor
 from skmba.calibration._module3_mixture import LOW_RANK_MIN_THETAS, ModelMixture
 from skmba.kernels import Gauss
-from tests.conftest import discrepancy
-
-
-def _draws(K=4, seed=0):
-    rng = np.random.default_rng(seed)
-    components = []
-    for _ in range(K):
-        A = rng.normal(size=(2, 2))
-        components.append(
-            DiscrepancyComponent(
-                Gauss(roughness=rng.uniform(0.5, 3.0)),
-                0.05 * (A @ A.T + np.eye(2)),
-                rng.uniform(0.005, 0.05, 2),
-                "constant",
-            )
-        )
-    log_w = rng.normal(size=K)
-    log_w -= special.logsumexp(log_w)
-    noise_mean = np.exp(log_w) @ np.array([c.noise for c in components])
-    return HyperposteriorDraws(None, components, log_w, None, noise_mean, float(K))
+from tests.conftest import discrepancy, mixture_draws
 
 
 @pytest.fixture(scope="module")
@@ -62,7 +38,7 @@ def smooth_mixture():
         Y_e,
         discrepancy(0.1 * np.eye(2), np.array([0.01, 0.02])),
     )
-    return ModelMixture(gm, _draws())
+    return ModelMixture(gm, mixture_draws())
 
 
 def _dense(mix, thetas, monkeypatch):
@@ -106,7 +82,7 @@ def test_a_model_term_of_high_rank_is_left_to_the_dense_path(problem, monkeypatc
     """The rough Exp emulator of 14 runs (the shared problem, m = 12): no
     factor of rank m / 4 holds its model term, and the batch's values are
     the dense path's to the bit."""
-    mix = ModelMixture(problem[1], _draws())
+    mix = ModelMixture(problem[1], mixture_draws())
     thetas = np.linspace(-0.9, 0.9, LOW_RANK_MIN_THETAS)[:, None]
     _, terms = mix.base.conditionals(thetas)
     assert model_term_factor(terms, 0.005) is None

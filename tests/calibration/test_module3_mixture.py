@@ -13,25 +13,7 @@ from skmba.calibration._module3_likelihood import GlobalModel
 from skmba.calibration._module3_mixture import ModelMixture
 from skmba.calibration._module4_prediction import conditional_moments
 from skmba.kernels import Gauss
-
-
-def _draws(K=4, seed=0):
-    rng = np.random.default_rng(seed)
-    comps = []
-    for _ in range(K):
-        A = rng.normal(size=(2, 2))
-        comps.append(
-            DiscrepancyComponent(
-                Gauss(roughness=rng.uniform(0.5, 3.0)),
-                0.05 * (A @ A.T + np.eye(2)),
-                rng.uniform(0.005, 0.05, 2),
-                "constant",
-            )
-        )
-    log_w = rng.normal(size=K)
-    log_w = log_w - special.logsumexp(log_w)
-    noise_mean = np.exp(log_w) @ np.array([c.noise for c in comps])
-    return HyperposteriorDraws(None, comps, log_w, None, noise_mean, float(K))
+from tests.conftest import mixture_draws as _draws
 
 
 @pytest.mark.parametrize("theta", [-0.7, 0.1, 0.9])
