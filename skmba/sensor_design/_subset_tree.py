@@ -36,8 +36,15 @@ subset:
 from typing import NamedTuple
 
 import numpy as np
+from scipy import linalg
 
 from skmba.calibration._module3_likelihood import regression_log_likelihoods
+
+#: From this many field points on, a node's new rows are whitened by one
+#: triangular solve per matrix of the stack; below, numpy's batched solve
+#: (which factors the triangular ``F_a`` again by LU) is as fast, in one call
+#: (docs/internals.rst, section skmba.sensor_design._subset_tree).
+TRIANGULAR_MIN_N = 24
 
 
 class FieldTerms(NamedTuple):
@@ -236,7 +243,7 @@ def _extend(node, a, futures, covariance, H_rows, Y, M, n, p):
     G[:, :rows, :width] = taken[:, :, n:-1]
     G[:, :rows, width:-1] = 0.0
     G[:, :rows, -1] = taken[:, :, -1]
-    G[:, rows:] = np.linalg.solve(F_a, rhs)  # F_a^-1 [...]
+    _whiten(F_a, rhs, out=G[:, rows:])  # F_a^-1 [...]
     return _Node(
         path,
         G,
@@ -244,6 +251,17 @@ def _extend(node, a, futures, covariance, H_rows, Y, M, n, p):
         node.log_det + 2.0 * np.sum(np.log(np.diagonal(F_a, axis1=1, axis2=2)), axis=1),
         alive,
     )
+
+
+def _whiten(F, rhs, out):
+    """``F_j^-1 rhs_j`` into ``out`` for a stack of lower-triangular ``F``."""
+    if F.shape[1] < TRIANGULAR_MIN_N:
+        out[...] = np.linalg.solve(F, rhs)
+        return
+    for j, (factor, columns) in enumerate(zip(F, rhs, strict=True)):
+        out[j] = linalg.solve_triangular(
+            factor, columns, lower=True, check_finite=False
+        )
 
 
 def _factor(C, alive):

@@ -9,6 +9,7 @@ from test_subset_likelihood import _three_response_problem
 from skmba._core.regression import regression_basis
 from skmba.calibration._module1_emulator import Emulator
 from skmba.kernels import Gauss
+from skmba.sensor_design import _subset_tree
 from skmba.sensor_design._subset_likelihood import FieldDesignEmulator, SubsetLikelihood
 from skmba.sensor_design._subset_tree import FieldTerms, subset_tree_log_likelihoods
 
@@ -53,6 +54,21 @@ def test_every_subset_equals_its_own_factorisation(regression):
     tree = subset_tree_log_likelihoods(design, subsets, fields, H_d, pieces)
     assert tree.shape == (7, 2, 4)
     reference = _one_by_one(design, X_e, fields, subsets, H_d, pieces)
+    np.testing.assert_allclose(tree, reference, rtol=1e-10, atol=1e-9)
+
+
+@pytest.mark.parametrize("smallest", [1, 10**6], ids=["triangular", "lu"])
+def test_both_ways_of_whitening_a_node_equal_the_subsets_own(monkeypatch, smallest):
+    # TRIANGULAR_MIN_N picks per-matrix triangular solves (large designs) or
+    # numpy's batched LU solve (small ones): both give each subset's value.
+    monkeypatch.setattr(_subset_tree, "TRIANGULAR_MIN_N", smallest)
+    design, X_e, fields = _fields_and_design()
+    H_d = regression_basis(X_e, "linear")
+    pieces = design.pieces(np.array([[-0.5], [0.3], [0.8]]))
+    subsets = [s for m in range(1, 4) for s in itertools.combinations(range(3), m)]
+    tree = subset_tree_log_likelihoods(design, subsets, fields, H_d, pieces)
+    reference = _one_by_one(design, X_e, fields, subsets, H_d, pieces)
+    assert np.all(np.isfinite(reference))
     np.testing.assert_allclose(tree, reference, rtol=1e-10, atol=1e-9)
 
 
