@@ -205,7 +205,7 @@ class PreposteriorDesigner(BaseEstimator):
         hyperparameters that generated its replicate, the natural guess of
         their estimate; with many correlated responses the likelihood is
         badly scaled and full convergence can take thousands of evaluations
-        for a small gain. None runs to convergence: slower, and the scores
+        for a small gain. None runs to convergence: slower, and most scores
         a little higher (the user guide's "Run time" measures both).
     max_warning_rate : float in [0, 1], default=None
         Rank first the subsets predicted to identify theta: no parameter's

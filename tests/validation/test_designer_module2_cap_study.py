@@ -1,7 +1,8 @@
 """The designer-module2-cap study's fixed-seed subset: what
 docs/sensor_design.rst says of the default ``module2_max_iter`` (200) on
-the truss at 12 temperatures (every score a little lower than with
-converged module-2 searches, the subsets' order kept), on 4 replicates."""
+the truss at 12 temperatures (the scores a little lower on average than
+with converged module-2 searches, the subsets' order kept), on 4
+replicates."""
 
 import numpy as np
 import pytest

@@ -4,8 +4,8 @@ Phase 1 of ``PreposteriorDesigner`` fits module 2 once per replicate by
 L-BFGS-B from the hyperparameters that generated the replicate, for at most
 ``module2_max_iter`` iterations (200 by default). On the nine-gauge truss
 (55 hyperparameters: a 9 x 9 discrepancy covariance, nine noise variances,
-one roughness) every search reaches the cap; a search run to convergence
-takes 700-3,200 evaluations. This study refits the same designer, on the
+one roughness) every search reaches the cap; without it a search stops
+after 700-3,200 evaluations. This study refits the same designer, on the
 same replicates, with each cap of ``--max-iter`` (``None``: to convergence,
 the reference) and compares what a user reads: the scores and the best
 subset of each size.
