@@ -38,24 +38,14 @@ from contextlib import redirect_stderr
 
 import numpy as np
 
-from skmba import ModularBayesCalibrator, PreposteriorDesigner
-from skmba.datasets import make_truss_bridge
-from validation.studies.designer_quadrature import GAUGES, compare
+from validation.studies.designer_quadrature import compare, truss_designer
 
 
 def _fit(n_design, max_iter, n_mc, n_jobs):
     """The designer fitted with ``module2_max_iter=max_iter``, its time and
     phase 1's (from its ``verbose=1`` lines)."""
-    data = make_truss_bridge(30, sensors=list(GAUGES), random_state=0)
-    designer = PreposteriorDesigner(
-        data.prior,
-        calibrator=ModularBayesCalibrator(n_restarts_optimizer=0),
-        n_design=n_design,
-        n_mc=n_mc,
-        n_jobs=n_jobs,
-        random_state=0,
-        verbose=1,
-        module2_max_iter=max_iter,
+    designer, data = truss_designer(
+        n_design, n_mc, n_jobs, verbose=1, module2_max_iter=max_iter
     )
     log = io.StringIO()
     started = time.perf_counter()

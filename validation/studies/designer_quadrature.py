@@ -51,8 +51,10 @@ from skmba.datasets import make_truss_bridge
 GAUGES = ("SA", "SB", "SC", "SD", "SE", "SF", "SG", "SH", "SI")
 
 
-def _fit(n_design, n_nodes, n_mc, n_jobs):
-    """The designer fitted with ``n_nodes`` stage-1 nodes, and its time."""
+def truss_designer(n_design, n_mc, n_jobs, **options):
+    """The studies' designer on the nine truss gauges (one search per
+    replicate, ``random_state=0``; ``options``: other designer parameters)
+    and the truss's data."""
     data = make_truss_bridge(30, sensors=list(GAUGES), random_state=0)
     designer = PreposteriorDesigner(
         data.prior,
@@ -61,7 +63,14 @@ def _fit(n_design, n_nodes, n_mc, n_jobs):
         n_mc=n_mc,
         n_jobs=n_jobs,
         random_state=0,
+        **options,
     )
+    return designer, data
+
+
+def _fit(n_design, n_nodes, n_mc, n_jobs):
+    """The designer fitted with ``n_nodes`` stage-1 nodes, and its time."""
+    designer, data = truss_designer(n_design, n_mc, n_jobs)
     saved = dict(replicates_module.PRIOR_NODES)
     replicates_module.PRIOR_NODES["one"] = n_nodes  # read in the main process
     started = time.perf_counter()
