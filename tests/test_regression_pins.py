@@ -38,15 +38,16 @@ kinds, and warns: that still catches a changed chain path, optimiser stop
 or module-2 integral, but not a change below that level. Add the kind's
 own file (or case) with ``--update`` on a commit that passes there.
 
-The ``Haswell-avx512`` file holds no ``r1_quadrature`` case, and cannot:
-with ``OPENBLAS_CORETYPE=Haswell`` on an AVX-512 machine (a Xeon, at
-a88027a) the fit's theta agrees with the ``Haswell-avx2`` file to 4e-10,
-but module 4's rule picks another module-2 draw for one of its 256 thetas
-(its systematic sampling compares cumulative weights that moved in the
-last bits), which moves the predicted discrepancy by 1.7e-2 of its largest
-value: inside that prediction's Monte Carlo error (its spread over eight
-``random_state`` is 2.5 % of its sd) but not inside :data:`CROSS_RTOL`, so
-that configuration fails this case.
+Module 4's predictions are compared across kinds more loosely than the
+rest (:data:`CROSS_RTOL_PREDICTIONS`): its rule picks one module-2 draw
+per theta by systematic sampling, and a cumulative weight that moved in
+the last bits can pick the neighbouring draw. Measured with
+``OPENBLAS_CORETYPE=Haswell`` on an AVX-512 Xeon (at a88027a): the
+quadrature fit's theta agreed with the ``Haswell-avx2`` file to 2e-10,
+but one of the rule's 256 thetas took another draw, which moved the
+predicted discrepancy by 1.4e-2 (as ``CROSS_RTOL`` measures), inside that
+prediction's Monte Carlo error (its spread over eight ``random_state``
+is 1.2-2.7 % of its sd).
 """
 
 import sys
@@ -73,6 +74,18 @@ RTOL = 1e-12
 #: draws by about a posterior sd, 5.5e-2 of their largest value here (the
 #: quadrature's draws: 2.2e-3).
 CROSS_RTOL = {"r1_quadrature": 1e-3, "r2_mcmc": 2e-4, "designer": 3e-4}
+#: The cross-kind tolerance of the calibration cases' predictions (the
+#: ``predict*`` arrays): ten times the 1.4e-2 that one draw picked
+#: otherwise by module 4's rule moved them (see the module's docstring).
+CROSS_RTOL_PREDICTIONS = 0.15
+
+
+def cross_rtol(key):
+    """The cross-kind tolerance of the array ``key`` (``case/name``)."""
+    case, name = key.split("/")
+    if name.startswith("predict"):
+        return CROSS_RTOL_PREDICTIONS
+    return CROSS_RTOL[case]
 
 
 def blas_kernel():
@@ -175,13 +188,13 @@ def _cases(path):
 
 
 def stored_pins(case):
-    """The pin files to compare ``case`` with and their tolerance: this
-    machine kind's own at :data:`RTOL`, or, where it has none or its file
-    lacks the case, every other kind's file that holds it at
-    :data:`CROSS_RTOL`."""
+    """The pin files to compare ``case`` with and the tolerance of each of
+    its arrays (a function of the array's key): this machine kind's own at
+    :data:`RTOL`, or, where it has none or its file lacks the case, every
+    other kind's file that holds it at :func:`cross_rtol`."""
     own = pins_path()
     if own.exists() and case in _cases(own):
-        return {machine_key(): own}, RTOL
+        return {machine_key(): own}, lambda key: RTOL
     others = {
         p.stem.removeprefix("regression_pins_"): p
         for p in sorted(PINS_DIR.glob("regression_pins_*.npz"))
@@ -192,25 +205,25 @@ def stored_pins(case):
     warnings.warn(
         f"no regression pins of {case!r} for this machine kind, "
         f"{machine_key()!r}: compared with {sorted(others)} at the cross-machine "
-        f"tolerance {CROSS_RTOL[case]:g} instead of {RTOL:g}; run 'python "
-        "tests/test_regression_pins.py --update' on a commit that passes here "
-        "and commit the file",
+        f"tolerance {CROSS_RTOL[case]:g} (predictions {CROSS_RTOL_PREDICTIONS:g}) "
+        f"instead of {RTOL:g}; run 'python tests/test_regression_pins.py "
+        "--update' on a commit that passes here and commit the file",
         UserWarning,
         stacklevel=2,
     )
-    return others, CROSS_RTOL[case]
+    return others, cross_rtol
 
 
 def assert_pinned(computed, stored, case, rtol):
     """Every array of ``case`` in ``stored`` (an opened pin file) equals the
-    computed one to ``rtol``, relative to the element and the array's
+    computed one to ``rtol(key)``, relative to the element and the array's
     largest value."""
     assert sorted(computed) == sorted(k for k in stored.files if k.startswith(case))
     for key, value in computed.items():
-        expected = stored[key]
+        expected, tol = stored[key], rtol(key)
         scale = np.max(np.abs(expected))
         np.testing.assert_allclose(
-            value, expected, rtol=rtol, atol=rtol * scale, err_msg=key
+            value, expected, rtol=tol, atol=tol * scale, err_msg=key
         )
 
 
@@ -224,11 +237,10 @@ def test_results_are_pinned(case):
 
 
 def test_the_cross_machine_tolerance_is_ten_times_the_kinds_differences():
-    """The files of different kinds agree on the cases they share within a
-    tenth of :data:`CROSS_RTOL` (a stale case, left by a change that moved
+    """The files of different kinds agree on the arrays they share within a
+    tenth of :func:`cross_rtol` (a stale case, left by a change that moved
     the numbers, fails here)."""
     paths = sorted(PINS_DIR.glob("regression_pins_*.npz"))
-    largest = dict.fromkeys(CASES, 0.0)
     pairs = 0
     for i, first in enumerate(paths):
         for second in paths[i + 1 :]:
@@ -236,13 +248,15 @@ def test_the_cross_machine_tolerance_is_ten_times_the_kinds_differences():
                 for key in sorted(set(a.files) & set(b.files)):
                     x, y = a[key], b[key]
                     gap = np.abs(x - y) / (np.abs(y) + np.max(np.abs(y)))
-                    case = key.split("/")[0]
-                    largest[case] = max(largest[case], float(np.max(gap)))
+                    assert np.max(gap) <= cross_rtol(key) / 10, (
+                        first.name,
+                        second.name,
+                        key,
+                        float(np.max(gap)),
+                    )
                     pairs += 1
     if not pairs:
         pytest.skip("no case is pinned on two machine kinds")
-    for case, gap in largest.items():
-        assert gap <= CROSS_RTOL[case] / 10, (case, gap)
 
 
 if __name__ == "__main__":
