@@ -177,7 +177,7 @@ class ModularBayesCalibrator(
     discrepancy_tol : "auto", float or None, default="auto"
         With "propagate": integrate the hyperparameters out until the Monte
         Carlo errors of theta's posterior mean and sd are below this many
-        posterior sds (the 95 % ends: twice that), in blocks of 128 draws,
+        posterior sds (the 95 % ends: 1.5 times that), in blocks of 128 draws,
         at most 4096; theta on a grid (one parameter) or at weighted
         importance nodes (several); reported by ``summary()``. "auto": 0.05
         with one parameter, reproducible whatever ``random_state`` (User

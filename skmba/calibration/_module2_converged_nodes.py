@@ -51,15 +51,17 @@ from skmba.calibration._module2_converged import (
     ConvergedIntegral,
     MonteCarloError,
     adapted,
-    draw_conditionals,
-    influence_errors,
     kish_share,
     marginal_laplace,
     mixture_draws,
-    moment_influences,
     rule_pairs,
     tolerances,
     warn_unmet,
+)
+from skmba.calibration._module2_errors import (
+    draw_conditionals,
+    influence_errors,
+    moment_influences,
 )
 from skmba.calibration._module2_posterior import (
     PROPOSAL_DF,
@@ -282,7 +284,7 @@ def draw_errors(A, theta, summaries, w):
     conditionals = draw_conditionals(A)
     if conditionals is None:
         return np.full(summaries.shape, np.nan)
-    share, P = conditionals
+    share, P, _ = conditionals
     scales = inverse_densities(theta, w)
     with np.errstate(divide="ignore", invalid="ignore"):
         influence = moment_influences(theta, P, summaries[0], summaries[1])

@@ -288,10 +288,17 @@ def proposal_draws(coords, mode, cov, n_draws, seed, prior_share=PRIOR_SHARE):
         [halton_student_t(mode, cov, n_draws - n_prior, t_seed)]
         + [coords.prior_draw(rng) for _ in range(n_prior)]
     )
-    log_t = np.atleast_1d(stats.multivariate_t(mode, cov, df=PROPOSAL_DF).logpdf(draws))
     log_p = np.array([coords.log_prior_normalised(v) for v in draws])
-    log_q = np.logaddexp(np.log1p(-prior_share) + log_t, np.log(prior_share) + log_p)
-    return draws, log_p, log_q
+    return draws, log_p, proposal_log_density(mode, cov, draws, log_p, prior_share)
+
+
+def proposal_log_density(mode, cov, V, log_p, prior_share=PRIOR_SHARE):
+    """``log q`` of :func:`proposal_draws`' defensive proposal around
+    ``mode`` with scale ``cov`` at the rows of ``V``, whose log prior
+    densities are ``log_p``."""
+    cov = proposal_covariance(cov)
+    log_t = np.atleast_1d(stats.multivariate_t(mode, cov, df=PROPOSAL_DF).logpdf(V))
+    return np.logaddexp(np.log1p(-prior_share) + log_t, np.log(prior_share) + log_p)
 
 
 def _noise_posterior_mean(coords, mode, cov, seed):
