@@ -44,6 +44,7 @@ from skmba._core.linalg import proposal_covariance
 from skmba._core.validation import seed_sequence
 from skmba.calibration._module2_converged import (
     ADAPT_SHARE,
+    END_TOLERANCE,
     INFLATION,
     MAX_DRAWS,
     N_BLOCK,
@@ -361,7 +362,8 @@ def converge_nodes(
         A first posterior of theta (draws): where the nodes start.
     tol : float
         Target Monte Carlo standard error of each parameter's posterior
-        mean, sd and (twice it) 95 % interval ends, in posterior sds.
+        mean, sd and (``END_TOLERANCE`` times it) 95 % interval ends, in
+        posterior sds.
     n_samples : int
         Posterior draws of theta to return (resampled from the nodes).
     random_state : int, SeedSequence or None
@@ -448,6 +450,6 @@ def _say(say, pairs, w, relative, parts, tol):
         f"{ess_draws:.0f}) at {len(pairs.U)} nodes of theta (effective "
         f"{ess_nodes:.0f}); Monte Carlo errors of theta's means, sds and "
         f"interval ends at most {np.array2string(relative.max(axis=1), precision=3)} "
-        f"posterior sds (targets {tol:g}, {tol:g}, {2 * tol:g}; over the "
+        f"posterior sds (targets {tol:g}, {tol:g}, {END_TOLERANCE * tol:g}; over the "
         f"hyperparameters {parts[0]:.2f}, over theta {parts[1]:.2f} of them)"
     )
