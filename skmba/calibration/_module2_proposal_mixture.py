@@ -79,7 +79,7 @@ def influence_proposal(V, share, influence, scales):
     their influences ``influence`` (K, s) on theta's summaries, each over
     its tolerance ``scales`` (s,): the draws' weighted mean and covariance,
     the optimal importance density's moments for those summaries (Owen
-    2013, Monte Carlo theory, section 9.4). None when no draw has both."""
+    2013, Monte Carlo theory, ch. 9). None when no draw has both."""
     size = np.sqrt(np.sum((influence / scales) ** 2, axis=1))
     weights = share * size
     total = np.sum(weights)
