@@ -79,13 +79,19 @@ def influence_proposal(V, share, influence, scales):
     their influences ``influence`` (K, s) on theta's summaries, each over
     its tolerance ``scales`` (s,): the draws' weighted mean and covariance,
     the optimal importance density's moments for those summaries (Owen
-    2013, Monte Carlo theory, ch. 9). None when no draw has both."""
+    2013, Monte Carlo theory, ch. 9). None when no draw has both, or when
+    those weights' Kish effective size is below ``2 (m + 1)``, too few to
+    estimate a covariance (as few as one draw can carry them: its moments
+    are a point; 21-98 on the cantilever cases' first 512 draws, m = 6).
+    """
     size = np.sqrt(np.sum((influence / scales) ** 2, axis=1))
     weights = share * size
     total = np.sum(weights)
     if not (np.isfinite(total) and total > 0.0):
         return None
     weights = weights / total
+    if 1.0 / np.sum(weights**2) < 2.0 * (V.shape[1] + 1):
+        return None
     mean = weights @ V
     centred = V - mean
     cov = (centred * weights[:, None]).T @ centred

@@ -58,3 +58,10 @@ def test_the_influence_proposal_is_at_the_influence_weighted_moments():
     # no proposal.
     assert influence_proposal(V, share, 0.0 * influence, np.ones(4)) is None
     assert influence_proposal(V, share, np.full((400, 4), np.nan), np.ones(4)) is None
+    # Influence on a few draws only (Kish size below 2 (m + 1) = 6): no
+    # covariance to fit, no proposal; with seven, one.
+    for n, expected in ((5, None), (7, "a proposal")):
+        few = np.zeros((400, 4))
+        few[:n] = 1.0
+        made = influence_proposal(V, share, few, np.ones(4))
+        assert (made is None) == (expected is None)
