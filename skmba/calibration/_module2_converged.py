@@ -70,6 +70,7 @@ from skmba.calibration._module2_posterior import (
 )
 from skmba.calibration._module2_proposal_mixture import (
     DrawBlocks,
+    draw_moments,
     influence_proposal,
 )
 from skmba.calibration._module2_theta_grid import (
@@ -513,9 +514,7 @@ def adapted(proposal, draws, A):
     W = marginal_weights(A)
     ess, prior_size = 1.0 / np.sum(W**2), 2.0 * (len(mode) + 1)
     share = ess / (ess + prior_size)
-    mean = W @ draws.V
-    centred = draws.V - mean
-    cov = (centred * W[:, None]).T @ centred / max(1.0 - np.sum(W**2), 1e-12)
+    mean, cov = draw_moments(draws.V, W)
     old = inflated / INFLATION**2
     new_mode = share * mean + (1.0 - share) * np.asarray(mode)
     new_cov = share * cov + (1.0 - share) * old

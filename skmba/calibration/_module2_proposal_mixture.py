@@ -92,10 +92,19 @@ def influence_proposal(V, share, influence, scales):
     weights = weights / total
     if 1.0 / np.sum(weights**2) < 2.0 * (V.shape[1] + 1):
         return None
+    mean, cov = draw_moments(V, weights)
+    if not (np.all(np.isfinite(mean)) and np.all(np.isfinite(cov))):
+        return None
+    return mean, cov
+
+
+def draw_moments(V, weights):
+    """The weighted mean and covariance of the draws ``V`` (K, m) for
+    ``weights`` (K,) that sum to one, the covariance divided by ``1 -
+    sum w^2`` (unbiased for normalised weights; equal weights give the
+    sample covariance)."""
     mean = weights @ V
     centred = V - mean
     cov = (centred * weights[:, None]).T @ centred
     cov /= max(1.0 - np.sum(weights**2), 1e-12)
-    if not (np.all(np.isfinite(mean)) and np.all(np.isfinite(cov))):
-        return None
     return mean, cov
