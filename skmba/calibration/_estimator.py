@@ -244,8 +244,12 @@ class ModularBayesCalibrator(
         nodes) times the weights' Kish share.
     theta_mcse_ : ndarray of shape (4, r)
         Monte Carlo errors of the posterior mean, sd, 2.5 % and 97.5 % ends
-        from the integral over the hyperparameters (``discrepancy_tol``);
-        NaN where not estimated.
+        from the integral over the hyperparameters: to ``discrepancy_tol``;
+        over module 2's 16 fixed draws (``discrepancy_tol=None``, and the
+        default with several parameters), as the draws themselves see it,
+        which reads low where a few of them carry the posterior (``fit``
+        warns above 0.1 posterior sds, 0.15 for the ends); NaN for the
+        plug-in.
     estimand_ : {"physical", "best_fit"}
         What ``theta_samples_``, ``theta_mean_`` and ``theta_cov_`` are of.
     discrepancy_draws_ : int

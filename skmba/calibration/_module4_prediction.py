@@ -96,6 +96,7 @@ def prediction_rule(
     with_draws=True,
     n_jobs=None,
     node_draw_weights=None,
+    return_draw_weights=False,
 ):
     """The module-4 rule of a
     :class:`~skmba.mcmc._posterior.PosteriorResult`.
@@ -110,7 +111,11 @@ def prediction_rule(
     draws out (a rule that only integrates over theta, as the propagated module 2's
     first pass). The weights at the rule's thetas are computed in ``n_jobs`` joblib
     tasks, or read from ``node_draw_weights`` (M, K), the weights at a reweighted
-    posterior's nodes when the reweighting computed them.
+    posterior's nodes when the reweighting computed them. ``return_draw_weights``
+    also returns the rule's thetas and weights before the draws are picked, and the
+    draws' weights there ((m, K); None without draws), from which
+    :func:`~skmba.calibration._module2_converged_nodes.mixture_errors` estimates the
+    Monte Carlo error of the mixture over the draws.
     """
     mixture = log_posterior.model
     rng = np.random.default_rng(seed_sequence(random_state))
@@ -123,24 +128,29 @@ def prediction_rule(
     else:
         rule = PredictionRule.equal_weights(posterior.samples)
     if not with_draws:
-        return rule
+        return (rule, rule, None) if return_draw_weights else rule
     if at_nodes is not None and node_draw_weights is not None:
         given = node_draw_weights[at_nodes]
     else:
-        given = _draw_weights(mixture, log_posterior.scaler.theta(rule.thetas), n_jobs)
+        given = draw_weights_at(
+            mixture, log_posterior.scaler.theta(rule.thetas), n_jobs
+        )
     if posterior.method == "quadrature":
         keep = given >= 1e-4 * given.max(axis=1, keepdims=True)
         i, k = np.nonzero(keep)
         weights = rule.weights[i] * given[i, k]
-        return PredictionRule(rule.thetas[i], weights / weights.sum(), k)
-    u = (np.arange(len(given)) + rng.uniform()) / len(given)
-    cdf = np.cumsum(given, axis=1)
-    picked = (cdf < rng.permutation(u)[:, None]).sum(axis=1)
-    draws = np.minimum(picked, cdf.shape[1] - 1)
-    return PredictionRule(rule.thetas, rule.weights, draws)
+        picked = PredictionRule(rule.thetas[i], weights / weights.sum(), k)
+    else:
+        u = (np.arange(len(given)) + rng.uniform()) / len(given)
+        cdf = np.cumsum(given, axis=1)
+        draws = (cdf < rng.permutation(u)[:, None]).sum(axis=1)
+        picked = PredictionRule(
+            rule.thetas, rule.weights, np.minimum(draws, len(cdf.T) - 1)
+        )
+    return (picked, rule, given) if return_draw_weights else picked
 
 
-def _draw_weights(mixture, thetas, n_jobs=None):
+def draw_weights_at(mixture, thetas, n_jobs=None):
     """``p(phi_k | theta, data)`` (m, K) at the rows of ``thetas``
     (standardised), evaluated together (in ``n_jobs`` joblib tasks); one by
     one (raising, saying why) when some theta has no draw that can be

@@ -63,6 +63,7 @@ from skmba.calibration._module2_prior_integral import (
 from skmba.calibration._module3_identifiability import identifiability
 from skmba.calibration._module3_likelihood import GlobalModel
 from skmba.calibration._module3_mixture import ModelMixture
+from skmba.calibration._module3_mixture_error import fixed_draws_error
 from skmba.calibration._module3_posterior import (
     LogPosterior,
     posterior_by_mcmc,
@@ -413,7 +414,8 @@ def _tolerance(inputs):
                 f"discrepancy_tol={tol:g} is not applied: it needs several "
                 f"calibration parameters, or one with its quadrature (here "
                 f'one, sampler "{sampler}"); module 3 mixes 16 draws of the '
-                "hyperparameters instead, and theta_mcse_ is NaN.",
+                "hyperparameters instead, and theta_mcse_ is their error as "
+                "the draws see it.",
                 UserWarning,
             )
         return None
@@ -530,16 +532,18 @@ def fit_module3(inputs, module2, seed, *, first_pass=False, earlier=None):
         )
     if posterior is None:
         posterior = _posterior(inputs, log_post, seed, first_pass, earlier)
-    rule = prediction_rule(
+    rule, nodes, draw_weights = prediction_rule(
         posterior,
         log_post,
         random_state=seed,
         with_draws=not first_pass,
         n_jobs=settings.n_jobs,
         node_draw_weights=draw_weights,
+        return_draw_weights=True,
     )
     inputs.progress.info(posterior.summary(time.perf_counter() - started))
-    return Module3Result(log_post, posterior, rule)
+    error = fixed_draws_error(posterior, nodes, draw_weights, log_post, settings.n_jobs)
+    return Module3Result(log_post, posterior, rule, error)
 
 
 def warm_burn_in(burn_in):

@@ -244,7 +244,7 @@ class CalibrationSummaryMixin:
             ``2.5%``, ``97.5%``, their Monte Carlo standard errors from the
             integral over the discrepancy hyperparameters (``mcse_mean``,
             ``mcse_sd``, ``mcse_2.5%``, ``mcse_97.5%``: ``theta_mcse_``, NaN
-            unless ``discrepancy_tol`` is set), ``prior_mean``, ``prior_sd``,
+            for the plug-in), ``prior_mean``, ``prior_sd``,
             ``sd_ratio`` (posterior over prior sd), ``r_hat``, ``ess_bulk`` (NaN with
             quadrature and for the best fit, whose draws are independent) and
             ``identifiability`` (of the physical parameter, module 3's).

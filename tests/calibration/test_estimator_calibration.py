@@ -821,10 +821,10 @@ def test_constant_field_data():
         cal.fit(X, y, **SIMS)
     assert cal.theta_mean_[0] == pytest.approx(60e3, rel=1e-6)
     # A response observed as constant is no error either, but a stuck gauge
-    # is named (and nothing else fires).
+    # is named.
     # (16 draws of module 2: with a response stuck at 0.5 the integral to
     # discrepancy_tol="auto" stops at 4096 draws short of its tolerance, in
-    # 6 of 6 seeds measured, and says so too.)
+    # 6 of 6 seeds measured, and says so too; the 16 draws say it below.)
     y_constant = np.column_stack([BAD.y_obs[:, 0], np.full(10, 0.5)])
     cal = ModularBayesCalibrator(
         prior=BAD.prior, n_restarts_optimizer=0, discrepancy_tol=None, random_state=0
@@ -836,8 +836,10 @@ def test_constant_field_data():
         # cantilever), which is said whatever the data.
         warnings.simplefilter("ignore", NonIdentifiabilityWarning)
         cal.fit(BAD.X_obs, y_constant, **SIMS)
+    # and the 16 draws disagree about E there, which is said as well
     assert [str(w.message)[:60] for w in caught] == [
-        "The observations of response 1 (column 1 of y) are all 0.5: "
+        "The observations of response 1 (column 1 of y) are all 0.5: ",
+        "Theta's posterior mixes 16 fixed draws of the discrepancy an",
     ]
     assert caught[0].category is FieldDataWarning
     assert np.all(np.isfinite(cal.theta_mean_)) and np.all(cal.noise_ > 0)
