@@ -52,7 +52,9 @@ from joblib import Parallel, delayed
 from skmba import ModularBayesCalibrator
 from skmba.calibration._module2_converged import tolerances
 from skmba.calibration._module3_mixture_error import MIXTURE_TOL
+from skmba.calibration._summary import parameter_names
 from skmba.datasets import make_bridge_monitoring, make_cantilever
+from skmba.priors._theta import check_prior
 from validation.suite import registry
 
 SUMMARIES = ("mean", "sd", "2.5%", "97.5%")
@@ -89,7 +91,7 @@ def build_case(name, seed):
         X_sim=data.X_sim,
         theta_sim=data.theta_sim,
         y_sim=data.y_sim,
-        parameter_names=list(data.prior),  # a dict of name: distribution
+        parameter_names=parameter_names(check_prior(data.prior)),
     )
     return case, {"bin_width": 2.0} if name == "bridge" else {}
 
