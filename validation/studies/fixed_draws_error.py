@@ -134,7 +134,11 @@ def case_rows(name, fits_by_seed):
     limit = tolerances(MIXTURE_TOL)
     first = next(iter(fits_by_seed.values()))
     r = first[0]["values"].shape[1]
-    names = build_case(name, 0)[0].parameter_names
+    names = (
+        registry()[name].parameter_names
+        if name in registry()
+        else build_case(name, 0)[0].parameter_names
+    )
     lines = []
     for j in range(r):
         spread, reported, z, spread_over = [], [], [], []
