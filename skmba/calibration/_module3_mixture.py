@@ -282,7 +282,7 @@ class ModelMixture:
                 continue  # no draw can be evaluated there: no evidence
         if not weights:
             return self, np.arange(len(self.models))
-        return self._keeping(np.flatnonzero(np.max(weights, axis=0) > tol))
+        return self.keeping(np.flatnonzero(np.max(weights, axis=0) > tol))
 
     def spread_restricted(self, thetas, n_jobs=None, tol=IDLE_WEIGHT):
         """:meth:`restricted` at many ``thetas`` (B, r), their values
@@ -309,11 +309,12 @@ class ModelMixture:
         if not np.isfinite(values).any():
             return self, np.arange(len(self.models)), values
         weights = draw_weights_of(values)  # zero rows give no evidence
-        used, kept = self._keeping(np.flatnonzero(np.max(weights, axis=0) > tol))
+        used, kept = self.keeping(np.flatnonzero(np.max(weights, axis=0) > tol))
         return used, kept, values
 
-    def _keeping(self, kept):
-        """The mixture of the draws ``kept`` (itself when all are) and them."""
+    def keeping(self, kept):
+        """The mixture of the draws ``kept`` (indices; itself when all are)
+        and them."""
         if len(kept) == len(self.models):
             return self, kept
         other = object.__new__(type(self))

@@ -42,6 +42,7 @@ from skmba.calibration._module2_converged import (
     tolerances,
 )
 from skmba.calibration._module2_converged_nodes import draw_errors, node_summaries
+from skmba.calibration._module3_mixture import IDLE_WEIGHT
 from skmba.calibration._module4_prediction import draw_weights_at
 from skmba.calibration._summary import parameter_names
 
@@ -118,8 +119,11 @@ def fixed_draws_error(posterior, rule, draw_weights, log_post, n_jobs=None):
     _module4_prediction.prediction_rule`). Chains are read at
     :data:`MIXTURE_THETAS` evenly thinned draws instead (independent and
     equally weighted), a quadrature posterior on its own fine grid, both at
-    the cost of one batch of evaluations (``n_jobs`` joblib tasks);
-    reweighted draws (an update) at the rule's.
+    the cost of one batch of evaluations (``n_jobs`` joblib tasks) over the
+    draws with weight at the rule's thetas (above :data:`~skmba.calibration.
+    _module3_mixture.IDLE_WEIGHT` at one of them, the chains' rule for idle
+    draws; the others get none); reweighted draws (an update) at the
+    rule's.
     """
     if draw_weights is None or draw_weights.shape[1] < 2:
         return None
@@ -132,9 +136,12 @@ def fixed_draws_error(posterior, rule, draw_weights, log_post, n_jobs=None):
         thetas = samples[np.round(picked).astype(int)]
         weights = np.full(len(thetas), 1.0 / len(thetas))
     if thetas is not rule.thetas:
-        draw_weights = draw_weights_at(
-            log_post.model, log_post.scaler.theta(thetas), n_jobs
-        )
+        # the draws idle at the rule's thetas stay idle (as in the chains)
+        kept = np.flatnonzero(draw_weights.max(axis=0) > IDLE_WEIGHT)
+        used = log_post.model.keeping(kept)[0]
+        at_kept = draw_weights_at(used, log_post.scaler.theta(thetas), n_jobs)
+        draw_weights = np.zeros((len(thetas), draw_weights.shape[1]))
+        draw_weights[:, kept] = at_kept
     return mixture_error(thetas, weights, draw_weights, parameter_names(log_post.prior))
 
 
