@@ -51,10 +51,10 @@ from skmba.calibration._summary import parameter_names
 #: fixed draws warns: the interval would move by about that much with
 #: ``random_state``.
 MIXTURE_TOL = 0.1
-#: The chains' draws at which the estimate is read (evenly thinned): their
-#: own sampling noise adds about 0.03 posterior sds to the error of the mean
-#: and 0.09 to the ends' at this number (at module 4's 200, 0.07 and 0.2,
-#: more than the draws' spread on an identifiable design).
+#: The chains' draws at which the estimate is read (evenly thinned). Their
+#: own sampling noise adds to it: on section 4.7.3's design, where the
+#: draws agree, the ends' errors read 0.03-0.06 posterior sds at this
+#: number and 0.17-0.39 at module 4's 200 thetas (docs/internals.rst).
 MIXTURE_THETAS = 1000
 
 

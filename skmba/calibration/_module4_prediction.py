@@ -114,7 +114,7 @@ def prediction_rule(
     posterior's nodes when the reweighting computed them. ``return_draw_weights``
     also returns the rule's thetas and weights before the draws are picked, and the
     draws' weights there ((m, K); None without draws), from which
-    :func:`~skmba.calibration._module2_converged_nodes.mixture_errors` estimates the
+    :func:`~skmba.calibration._module3_mixture_error.mixture_errors` estimates the
     Monte Carlo error of the mixture over the draws.
     """
     mixture = log_posterior.model
