@@ -127,7 +127,6 @@ def fixed_draws_error(posterior, rule, draw_weights, log_post, n_jobs=None):
     """
     if draw_weights is None or draw_weights.shape[1] < 2:
         return None
-    thetas, weights = rule.thetas, rule.weights
     if posterior.method == "quadrature":
         thetas, weights = posterior.nodes, posterior.weights
     elif posterior.method == "mcmc":
@@ -135,7 +134,9 @@ def fixed_draws_error(posterior, rule, draw_weights, log_post, n_jobs=None):
         picked = np.linspace(0, len(samples) - 1, min(MIXTURE_THETAS, len(samples)))
         thetas = samples[np.round(picked).astype(int)]
         weights = np.full(len(thetas), 1.0 / len(thetas))
-    if thetas is not rule.thetas:
+    else:  # reweighted: the rule's thetas, whose draws' weights are known
+        thetas, weights = rule.thetas, rule.weights
+    if posterior.method in ("quadrature", "mcmc"):
         # the draws idle at the rule's thetas stay idle (as in the chains)
         kept = np.flatnonzero(draw_weights.max(axis=0) > IDLE_WEIGHT)
         used = log_post.model.keeping(kept)[0]
