@@ -243,14 +243,25 @@ class ModelMixture:
 
     def log_likelihood(self, theta):
         """``log sum_k w_k p(data | theta, phi_k)``."""
+        return self.log_likelihood_with_components(theta)[0]
+
+    def log_likelihood_with_components(self, theta):
+        """:meth:`log_likelihood` and the :meth:`component_log_likelihoods`
+        it sums (K,)."""
+        values = self.component_log_likelihoods(theta)
         # numpy's reduction: scipy's logsumexp costs more than the sum here.
-        return float(np.logaddexp.reduce(self.component_log_likelihoods(theta)))
+        return float(np.logaddexp.reduce(values)), values
 
     def log_likelihoods(self, thetas):
         """:meth:`log_likelihood` at the rows of ``thetas`` (B, r): (B,),
         ``-inf`` where no draw can be evaluated."""
+        return self.log_likelihoods_with_components(thetas)[:, 0]
+
+    def log_likelihoods_with_components(self, thetas):
+        """:meth:`log_likelihoods` (the first column) and the
+        :meth:`batch_component_log_likelihoods` they sum (the others): (B, 1 + K)."""
         values = self.batch_component_log_likelihoods(thetas)
-        return np.logaddexp.reduce(values, axis=1)
+        return np.column_stack([np.logaddexp.reduce(values, axis=1), values])
 
     def draw_weights(self, theta):
         """``p(phi_k | theta, data)`` over the draws (sums to one)."""

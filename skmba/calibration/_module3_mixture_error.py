@@ -7,9 +7,9 @@ _module2_posterior.N_HYPER_DRAWS`) instead of integrating them out to a
 tolerance. Another ``random_state`` draws other ``phi``, and theta's
 posterior moves with them. :func:`mixture_errors` estimates by how much
 from the draws themselves: each enters through its conditional posterior of
-theta, read at module 4's rule (the posterior's thetas and each draw's
-weight ``p(phi_k | theta, data)`` there, which the predictions need anyway,
-:func:`~skmba.calibration._module4_prediction.prediction_rule`), with the
+theta, read from the posterior's thetas and each draw's weight ``p(phi_k |
+theta, data)`` there (the chains keep it at every draw from their own
+evaluations; a quadrature posterior reads it on its grid), with the
 delta method of the converged integrals (:func:`~skmba.calibration.
 _module2_converged_nodes.draw_errors`). :func:`mixture_error` makes it the
 fit's :class:`~skmba.calibration._module2_converged.MonteCarloError`
@@ -51,11 +51,6 @@ from skmba.calibration._summary import parameter_names
 #: fixed draws warns: the interval would move by about that much with
 #: ``random_state``.
 MIXTURE_TOL = 0.1
-#: The chains' draws at which the estimate is read (evenly thinned). Their
-#: own sampling noise adds to it: on section 4.7.3's design, where the
-#: draws agree, the ends' errors read 0.03-0.06 posterior sds at this
-#: number and 0.17-0.39 at module 4's 200 thetas (docs/internals.rst).
-MIXTURE_THETAS = 1000
 
 
 def mixture_errors(thetas, weights, draw_weights):
@@ -116,27 +111,25 @@ def fixed_draws_error(posterior, rule, draw_weights, log_post, n_jobs=None):
 
     ``rule`` and ``draw_weights`` are module 4's thetas before its draws
     are picked and the draws' weights there (:func:`~skmba.calibration.
-    _module4_prediction.prediction_rule`). Chains are read at
-    :data:`MIXTURE_THETAS` evenly thinned draws instead (independent and
-    equally weighted), a quadrature posterior on its own fine grid, both at
-    the cost of one batch of evaluations (``n_jobs`` joblib tasks) over the
-    draws with weight at the rule's thetas (above :data:`~skmba.calibration.
-    _module3_mixture.IDLE_WEIGHT` at one of them, the chains' rule for idle
-    draws; the others get none); reweighted draws (an update) at the
-    rule's.
+    _module4_prediction.prediction_rule`). Chains are read at all their
+    draws instead, equally weighted, from the weights they kept
+    (``posterior.draw_weights``: no evaluation); a quadrature posterior on
+    its own fine grid, at the cost of one batch of evaluations (``n_jobs``
+    joblib tasks) over the draws with weight at the rule's thetas (above
+    :data:`~skmba.calibration._module3_mixture.IDLE_WEIGHT` at one of them,
+    the chains' rule for idle draws; the others get none); reweighted draws
+    (an update) at the rule's.
     """
     if draw_weights is None or draw_weights.shape[1] < 2:
         return None
-    if posterior.method == "quadrature":
-        thetas, weights = posterior.nodes, posterior.weights
-    elif posterior.method == "mcmc":
-        samples = posterior.samples
-        picked = np.linspace(0, len(samples) - 1, min(MIXTURE_THETAS, len(samples)))
-        thetas = samples[np.round(picked).astype(int)]
+    if posterior.method == "mcmc":
+        thetas, draw_weights = posterior.samples, posterior.draw_weights
         weights = np.full(len(thetas), 1.0 / len(thetas))
+    elif posterior.method == "quadrature":
+        thetas, weights = posterior.nodes, posterior.weights
     else:  # reweighted: the rule's thetas, whose draws' weights are known
         thetas, weights = rule.thetas, rule.weights
-    if posterior.method in ("quadrature", "mcmc"):
+    if posterior.method == "quadrature":
         # the draws idle at the rule's thetas stay idle (as in the chains)
         kept = np.flatnonzero(draw_weights.max(axis=0) > IDLE_WEIGHT)
         used = log_post.model.keeping(kept)[0]

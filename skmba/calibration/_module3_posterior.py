@@ -92,14 +92,25 @@ class LogPosterior:
 
         ``model`` replaces the global model (one draw of a mixture).
         """
+        return self._at(theta, model)[0]
+
+    def _at(self, theta, model=None, components=False):
+        """The log posterior at ``theta`` and, with ``components``, the joint
+        log density of ``theta`` and each module-2 draw of the mixture (K,;
+        None without)."""
+        model = self.model if model is None else model
+        joint = np.full(len(model.models), -np.inf) if components else None
         log_prior = float(np.ravel(self.prior.logpdf(theta[None, :]))[0])
         if not np.isfinite(log_prior):
-            return -np.inf
-        model = self.model if model is None else model
+            return -np.inf, joint
+        t = self.scaler.theta(theta)
         try:
-            return log_prior + model.log_likelihood(self.scaler.theta(theta))
+            if not components:
+                return log_prior + model.log_likelihood(t), None
+            log_likelihood, parts = model.log_likelihood_with_components(t)
         except FactorizationError:
-            return -np.inf
+            return -np.inf, joint
+        return log_prior + log_likelihood, log_prior + parts
 
     def with_model(self, model):
         """A copy with another global model (e.g. a restricted mixture)."""
@@ -127,6 +138,17 @@ class LogPosterior:
             return -np.inf
         return self(theta, model) + np.sum(np.log(theta[self.log_dims]))
 
+    def log_density_u_with_components(self, u):
+        """:meth:`log_density_u` and, as :meth:`log_density_u_components`,
+        the joint log density of ``u`` and each module-2 draw (K,): the same
+        value, bit for bit, from the same evaluation."""
+        theta = self.from_u(u)
+        if not np.all(np.isfinite(theta)):
+            return -np.inf, np.full(len(self.model.models), -np.inf)
+        value, joint = self._at(theta, components=True)
+        jacobian = np.sum(np.log(theta[self.log_dims]))
+        return value + jacobian, joint + jacobian
+
     def log_density_u_batch(self, U):
         """:meth:`log_density_u` at the rows of ``U`` (m, r): (m,).
 
@@ -134,6 +156,15 @@ class LogPosterior:
         evaluated together (:meth:`GlobalModel.log_likelihoods`).
         """
         return self._log_density_rows(U, self.model.log_likelihoods)
+
+    def log_density_u_batch_with_components(self, U):
+        """:meth:`log_density_u_batch` (m,) and :meth:`log_density_u_components`
+        (m, K) from the same evaluation, the first bit for bit."""
+        K = len(self.model.models)
+        out = self._log_density_rows(
+            U, self.model.log_likelihoods_with_components, width=1 + K
+        )
+        return out[:, 0], out[:, 1:]
 
     def log_density_u_components(self, U):
         """Over a :class:`~skmba.calibration._module3_mixture.ModelMixture`, the joint
@@ -240,6 +271,15 @@ class _ChainTarget:
     def batch(self, U):
         """Log density at the rows of ``U`` (m, r), evaluated together."""
         return self.log_posterior.log_density_u_batch(U)
+
+    def with_blob(self, u):
+        """Log density at ``u`` and, its blob, the joint log density of
+        ``u`` and each module-2 draw (K,)."""
+        return self.log_posterior.log_density_u_with_components(u)
+
+    def batch_with_blobs(self, U):
+        """:meth:`batch` and the blobs of :meth:`with_blob` (m, K)."""
+        return self.log_posterior.log_density_u_batch_with_components(U)
 
     def labelled(self, U, labels):
         """Joint log density of ``U[b]`` and module-2 draw ``labels[b]``."""
@@ -515,6 +555,8 @@ def posterior_by_mcmc(
             # An earlier run's draws fit the independence proposal at once.
             moments=None if earlier is None else (mode, cov),
             stopping=None if target_ess is None else EssTarget(target_ess),
+            # each draw's p(phi_k | theta, data), for the error of a mixture
+            keep_blobs=check and not joint and len(log_posterior.model.models) > 1,
         )
 
     result = sample(chain_posterior)
@@ -571,6 +613,11 @@ def _mcmc_result(log_posterior, result, kept, check, say):
     labels = result.labels
     if labels is not None and kept is not None:
         labels = kept[labels]  # the indices of the draws in the whole mixture
+    draw_weights = None
+    if result.blobs is not None:
+        shares = draw_weights_of(result.blobs.reshape(-1, result.blobs.shape[-1]))
+        draw_weights = np.zeros((len(shares), len(log_posterior.model.models)))
+        draw_weights[:, slice(None) if kept is None else kept] = shares
     log_density = None
     if result.log_density is not None:
         log_density = result.log_density - np.sum(
@@ -592,4 +639,5 @@ def _mcmc_result(log_posterior, result, kept, check, say):
         ess=on_theta.ess,
         log_density=log_density,
         labels=labels,
+        draw_weights=draw_weights,
     )

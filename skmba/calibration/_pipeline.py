@@ -31,7 +31,7 @@ True
 """
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property, partial
 
 import numpy as np
@@ -543,6 +543,8 @@ def fit_module3(inputs, module2, seed, *, first_pass=False, earlier=None):
     )
     inputs.progress.info(posterior.summary(time.perf_counter() - started))
     error = fixed_draws_error(posterior, nodes, draw_weights, log_post, settings.n_jobs)
+    if posterior.draw_weights is not None:  # read: not kept with the fit
+        posterior = replace(posterior, draw_weights=None)
     return Module3Result(log_post, posterior, rule, error)
 
 

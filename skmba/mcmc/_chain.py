@@ -56,7 +56,13 @@ from skmba.mcmc._proposals import (
     window_moments,
 )
 from skmba.mcmc._stopping import CHECK_EVERY
-from skmba.mcmc._target import evaluate, evaluate_batch, evaluate_labelled
+from skmba.mcmc._target import (
+    evaluate,
+    evaluate_batch,
+    evaluate_batch_with_blobs,
+    evaluate_labelled,
+    evaluate_with_blob,
+)
 
 # Optimal scaling of a random-walk proposal for a Gaussian target in r
 # dimensions (Gelman, Roberts & Gilks 1996): proposal covariance
@@ -105,9 +111,10 @@ class _Block:
     ``independent`` marks the steps that are independence moves; their
     proposals, the target's and the proposal's log densities there are in
     ``proposals``, ``values`` and ``g_values`` (rows of the other steps
-    unused), with the proposed ``labels`` of a labelled target; ``label_u``
-    are the uniforms of a labelled target's label proposals and Gibbs
-    updates (None otherwise). ``next`` is the first step not yet made.
+    unused), with the proposed ``labels`` of a labelled target and, for a
+    chain that keeps its target's blobs, their ``blobs`` (None otherwise);
+    ``label_u`` are the uniforms of a labelled target's label proposals and
+    Gibbs updates (None otherwise). ``next`` is the first step not yet made.
     """
 
     increments: np.ndarray
@@ -118,6 +125,7 @@ class _Block:
     g_values: np.ndarray
     labels: np.ndarray
     label_u: np.ndarray | None
+    blobs: np.ndarray | None = None
     next: int = 0
 
 
@@ -131,7 +139,9 @@ class Chain:
     independence proposals of a block, with their densities, are computed
     before its first step. The generator and all the state travel with
     the object, so that a chain run in several segments, in any processes,
-    gives the draws of one run.
+    gives the draws of one run. With ``keep_blobs`` the draws' evaluations
+    go through the target's ``with_blob`` and ``batch_with_blobs``, and
+    ``blobs`` keeps the blob of each draw (the same values and path).
     """
 
     def __init__(
@@ -149,6 +159,7 @@ class Chain:
         n_labels=1,
         keep_log_density=True,
         moments=None,
+        keep_blobs=False,
     ):
         r = start.size
         self.chain = chain
@@ -187,6 +198,12 @@ class Chain:
         self.joint = True  # False: fell back to the mixture (_check_joint)
         self.burn_independent = np.zeros(2, dtype=int)  # moves, accepted
         self.labels = np.zeros(n_samples, dtype=int)
+        # The target's blobs at the draws (keep_blobs): that of the current
+        # point once the draws began (None: not known), and of each draw
+        # (made at the first draw, when their shape is known).
+        self.keep_blobs = keep_blobs
+        self.blob = None
+        self.blobs = None
         if moments is not None and independence > 0.0:
             # Independence moves from the first step, from the target's
             # moments known from an earlier run (until the burn-in's own).
@@ -242,6 +259,8 @@ class Chain:
         self.n_samples = m
         self.samples, self.values = self.samples[:m], self.values[:m]
         self.labels = self.labels[:m]
+        if self.blobs is not None:
+            self.blobs = self.blobs[:m]
         self.pending = None
         if self.labelled and self.keep_log_density:
             self._marginal_values(log_density)
@@ -261,6 +280,7 @@ class Chain:
         values = g_values = np.empty(m)
         labels = np.zeros(m, dtype=int)
         label_u = self.rng.random(m) if self.labelled else None
+        blobs = None
         if self.proposal is not None and self.independence > 0.0:
             independent = self.rng.random(m) < self.independence
             k = int(independent.sum())
@@ -278,13 +298,28 @@ class Chain:
                 g_values[independent] = self.proposal.logpdf(
                     proposals[independent]
                 ) + np.log(self.label_probs[drawn])
+            elif k and self.keep_blobs and self.frozen:
+                values[independent], drawn = evaluate_batch_with_blobs(
+                    log_density, proposals[independent], self.chain
+                )
+                blobs = np.empty((m, *drawn.shape[1:]))
+                blobs[independent] = drawn
+                g_values[independent] = self.proposal.logpdf(proposals[independent])
             elif k:
                 values[independent] = evaluate_batch(
                     log_density, proposals[independent], self.chain
                 )
                 g_values[independent] = self.proposal.logpdf(proposals[independent])
         return _Block(
-            increments, log_u, independent, proposals, values, g_values, labels, label_u
+            increments,
+            log_u,
+            independent,
+            proposals,
+            values,
+            g_values,
+            labels,
+            label_u,
+            blobs,
         )
 
     def _step(self, log_density, block, i, scale=1.0):
@@ -302,21 +337,26 @@ class Chain:
             if block.log_u[i] < (value - logp) - (g_value - self.glogp):
                 self.theta, self.logp = block.proposals[i].copy(), value
                 self.glogp = g_value
+                self.blob = None if block.blobs is None else block.blobs[i]
                 if self.labelled:
                     self.label = int(block.labels[i])
                 return True, None
             return False, None
         proposal = theta + scale * block.increments[i]
+        blob = None
         if self.labelled:
             value = evaluate_labelled(
                 log_density, proposal[None, :], np.array([self.label]), self.chain
             )[0]
+        elif self.keep_blobs and self.frozen:
+            value, blob = evaluate_with_blob(log_density, proposal, self.chain)
         else:
             value = evaluate(log_density, proposal, self.chain)
         diff = value - logp
         alpha = 1.0 if diff >= 0.0 else math.exp(diff)
         if block.log_u[i] < diff:
             self.theta, self.logp, self.glogp = proposal, value, None
+            self.blob = blob
             return True, alpha
         return False, alpha
 
@@ -510,6 +550,12 @@ class Chain:
         """
         samples, values = self.samples, self.values
         step, end = self.drawn, min(self.n_samples, self.drawn + n_steps)
+        if self.keep_blobs and self.blob is None:
+            # the point the burn-in left (its own evaluation kept no blob)
+            point = self.theta.copy()
+            self.blob = evaluate_with_blob(log_density, point, self.chain)[1]
+        if self.keep_blobs and self.blobs is None:
+            self.blobs = np.empty((self.n_samples, *self.blob.shape))
         while step < end:
             if self.pending is None:
                 m = min(_BLOCK, self.n_samples - step)
@@ -531,6 +577,8 @@ class Chain:
                 samples[step] = self.theta
                 values[step] = self.logp
                 self.labels[step] = self.label if self.labelled else 0
+                if self.keep_blobs:
+                    self.blobs[step] = self.blob
                 step += 1
             block.next = stop
             if stop == len(block.log_u):

@@ -41,6 +41,12 @@ class PosteriorResult:
     labels : ndarray of shape (n_chains, n_samples) or None
         Over a mixture of module-2 draws, the draw that the chains sampled
         with each theta (a draw of ``p(phi_k | theta, data)``); MCMC only.
+    draw_weights : ndarray of shape (m, K) or None
+        Over a mixture of module-2 draws, ``p(phi_k | theta, data)`` at each
+        of ``samples`` (zero for the draws the chains left out as idle),
+        from the chains' own evaluations; MCMC with its diagnostics checked
+        only (what module 3 needs until it has estimated the draws' Monte
+        Carlo error, then dropped).
     anchor : skmba.mcmc._reweight.Anchor or None
         Reweighted only: the run whose draws were reweighted (the next
         update reweights them again).
@@ -60,6 +66,7 @@ class PosteriorResult:
     log_density: np.ndarray | None = None
     labels: np.ndarray | None = None
     anchor: object | None = None
+    draw_weights: np.ndarray | None = None
 
     def summary(self, seconds):
         """One line for the progress log: method, time, mean, sd, diagnostics."""

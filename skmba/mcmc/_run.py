@@ -81,6 +81,8 @@ class ChainResult:
         For a labelled target (a mixture, :mod:`skmba.mcmc._chain`), the
         component of each draw: a draw of ``p(k | theta)`` at the draw's
         theta. None otherwise.
+    blobs : ndarray of shape (n_chains, n_samples, ...) or None
+        With ``keep_blobs``, the target's blob at each draw.
 
     Examples
     --------
@@ -100,6 +102,7 @@ class ChainResult:
     proposal_cov: np.ndarray
     independence_rate: np.ndarray | None = None
     labels: np.ndarray | None = None
+    blobs: np.ndarray | None = None
 
     @property
     def n_chains(self):
@@ -143,6 +146,7 @@ def run_chains(
     keep_log_density=True,
     moments=None,
     stopping=None,
+    keep_blobs=False,
 ):
     """Run adaptive Metropolis-Hastings chains in parallel.
 
@@ -243,6 +247,15 @@ default=None
         first of its checkpoints where the draws so far meet it (all chains
         stop together). The draws are the first draws of the run without
         it. None: ``n_samples`` draws.
+    keep_blobs : bool, default=False
+        Keep the target's blobs at the draws (after emcee's): extra values
+        that the target computes with its log density (e.g. a mixture's
+        components), from its methods ``with_blob(theta) -> (value, blob)``
+        and ``batch_with_blobs(thetas) -> (values, blobs)``, which the draws
+        then call instead of the plain ones (their values must be the same,
+        bit for bit). :attr:`ChainResult.blobs` holds them, at the cost of
+        one more evaluation per chain (the point where its draws begin).
+        Not for a labelled target.
 
     Returns
     -------
@@ -281,6 +294,7 @@ default=None
     burn_in = check_count(burn_in, "burn_in", minimum=0)
     chols = proposal_chols(proposal_cov, n_chains, r)
     independence = check_independence(independence)
+    _check_blobs(densities, keep_blobs)
     start_values = _start_values(densities, starts)
     seeds = seed_sequence(random_state).spawn(n_chains)
     return _run_parallel(
@@ -295,7 +309,31 @@ default=None
         keep_log_density=bool(keep_log_density),
         moments=check_moments(moments, r),
         stopping=stopping,
+        keep_blobs=bool(keep_blobs),
     )
+
+
+def _check_blobs(densities, keep_blobs):
+    """A target whose blobs are kept must have the methods that give them."""
+    if not keep_blobs:
+        return
+    for density in densities:
+        if int(getattr(density, "n_labels", 1)) > 1:
+            raise ValueError(
+                "keep_blobs=True is not available for a labelled target: "
+                "sample the mixture itself (n_labels=1) to keep its blobs."
+            )
+        missing = [
+            name
+            for name in ("with_blob", "batch_with_blobs")
+            if not callable(getattr(density, name, None))
+        ]
+        if missing:
+            raise TypeError(
+                f"keep_blobs=True needs log_density methods {missing}: give the "
+                "target with_blob(theta) -> (value, blob) and "
+                "batch_with_blobs(thetas) -> (values, blobs), or keep_blobs=False."
+            )
 
 
 def _run_parallel(
@@ -311,6 +349,7 @@ def _run_parallel(
     keep_log_density,
     moments=None,
     stopping=None,
+    keep_blobs=False,
 ):
     """Run each chain's ``(log_density, start, start_value, chol, seed)``.
 
@@ -340,6 +379,7 @@ def _run_parallel(
                 n_labels=int(getattr(density, "n_labels", 1)),
                 keep_log_density=keep_log_density,
                 moments=moments,
+                keep_blobs=keep_blobs,
             )
         )
     _advance_in_segments(densities, states, n_jobs, blas_order, progress, stopping)
@@ -464,6 +504,11 @@ def _stacked_result(states, keep_log_density):
         labels=(
             np.stack([state.labels for state in states])
             if all(state.labelled for state in states)
+            else None
+        ),
+        blobs=(
+            np.stack([state.blobs for state in states])
+            if states[0].keep_blobs
             else None
         ),
     )

@@ -10,7 +10,10 @@ into a ``RuntimeError`` naming the chain:
   ``batch`` method when it has one;
 * :func:`evaluate_labelled`: the joint log density ``p(theta, k)`` of a
   labelled target (a finite mixture sampled with its component);
-* :func:`checked_values`: the check of the vectorised methods' values.
+* :func:`checked_values`: the check of the vectorised methods' values;
+* :func:`evaluate_with_blob`, :func:`evaluate_batch_with_blobs`: the same
+  with the target's blobs (extra values it computes with its log density,
+  after emcee's), for chains that keep them at their draws.
 
 Examples
 --------
@@ -78,3 +81,36 @@ def evaluate_labelled(log_density, thetas, labels, chain):
     return checked_values(
         log_density.labelled, "labelled", len(thetas), chain, thetas, labels
     )
+
+
+def evaluate_with_blob(log_density, theta, chain):
+    """``log_density.with_blob(theta)``: the value (checked as by
+    :func:`evaluate`) and the blob, an ndarray."""
+    blobs = []
+
+    def value(point):
+        result, blob = log_density.with_blob(point)
+        blobs.append(np.asarray(blob, dtype=float))
+        return result
+
+    return evaluate(value, theta, chain), blobs[0]
+
+
+def evaluate_batch_with_blobs(log_density, thetas, chain):
+    """``log_density.batch_with_blobs(thetas)``: the values at the rows of
+    ``thetas`` (checked as by :func:`evaluate_batch`) and their blobs, an
+    ndarray with one row per theta."""
+    blobs = []
+
+    def values(points):
+        result, blob = log_density.batch_with_blobs(points)
+        blobs.append(np.asarray(blob, dtype=float))
+        return result
+
+    out = checked_values(values, "batch_with_blobs", len(thetas), chain, thetas)
+    if len(blobs[0]) != len(thetas):
+        raise RuntimeError(
+            f"log_density.batch_with_blobs returned {len(blobs[0])} blobs for "
+            f"{len(thetas)} points in chain {chain}; it must return one per point"
+        )
+    return out, blobs[0]

@@ -140,6 +140,59 @@ def test_log_density_of_many_points_equals_one_at_a_time():
     assert in_units[3] == in_units[5] == -np.inf
 
 
+def test_the_log_density_with_its_components_is_the_same_value():
+    """What the chains evaluate when they keep each draw's components: the
+    log density of the plain call, bit for bit (one point and a batch, with
+    points outside the support), and components whose sum is it."""
+    cal = _two_parameter_fit()
+    lp = cal._log_posterior
+    thetas = cal.theta_samples_[::20][:12].copy()
+    thetas[3] = cal.prior_.bounds(0.999999)[:, 1] * 10.0
+    U = lp.to_u(thetas)
+    U[5] = np.nan
+    values, components = lp.log_density_u_batch_with_components(U)
+    np.testing.assert_array_equal(values, lp.log_density_u_batch(U))
+    assert components.shape == (12, len(lp.model.models))
+    assert np.all(components[[3, 5]] == -np.inf)
+    finite = np.isfinite(values)
+    np.testing.assert_allclose(
+        np.logaddexp.reduce(components[finite], axis=1), values[finite], rtol=1e-12
+    )
+    np.testing.assert_allclose(
+        components[finite], lp.log_density_u_components(U)[finite], rtol=1e-12
+    )
+    for u, joint in zip(U, components, strict=True):
+        value, one = lp.log_density_u_with_components(u)
+        assert value == lp.log_density_u(u)
+        np.testing.assert_allclose(one, joint, rtol=1e-9)
+
+
+def test_chains_keep_each_draw_s_module_2_weights():
+    """The second pass's chains keep p(phi_k | theta, data) at every draw
+    from their own evaluations: the weights at the draws evaluated again
+    (zero for the draws they left out as idle), and the same draws as
+    without them."""
+    from skmba.calibration._module3_mixture import draw_weights_of
+    from skmba.calibration._module3_posterior import posterior_by_mcmc
+
+    lp = _two_parameter_fit()._log_posterior
+    kwargs = dict(n_chains=2, n_samples=300, burn_in=200, random_state=1)
+    with warnings.catch_warnings():  # short chains: R-hat and ESS warn
+        warnings.simplefilter("ignore")
+        posterior = posterior_by_mcmc(lp, **kwargs)
+    weights = posterior.draw_weights
+    K = len(lp.model.models)
+    assert weights.shape == (len(posterior.samples), K)
+    again = draw_weights_of(
+        lp.model.batch_component_log_likelihoods(lp.scaler.theta(posterior.samples))
+    )
+    np.testing.assert_allclose(weights, again, rtol=0, atol=1e-8)
+    assert np.any(weights.max(axis=0) == 0.0)  # some draws left out
+    plain = posterior_by_mcmc(lp, check=False, **kwargs)
+    assert plain.draw_weights is None
+    np.testing.assert_array_equal(plain.samples, posterior.samples)
+
+
 def test_module_2_draws_sampled_with_theta_follow_their_conditional_weights(
     monkeypatch,
 ):

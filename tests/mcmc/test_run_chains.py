@@ -14,7 +14,7 @@ from skmba.mcmc._chain import Chain
 from skmba.mcmc._diagnostics import check_diagnostics, ess_bulk
 from skmba.mcmc._proposals import T_VARIANCE_FACTOR, TProposal, label_proposal
 from skmba.mcmc._run import ChainResult, run_chains
-from skmba.mcmc._stopping import CHECK_EVERY
+from skmba.mcmc._stopping import CHECK_EVERY, EssTarget
 
 # A 2-D Gaussian whose scales differ by 1e5 and whose correlation is -0.9:
 # far from the default proposal (2.38^2 / 2) I, so that only an adapted
@@ -491,6 +491,59 @@ def test_chains_with_independence_moves_are_identical_for_any_n_jobs():
     _assert_identical(serial, parallel)
     np.testing.assert_array_equal(serial.independence_rate, parallel.independence_rate)
     assert not np.array_equal(run(0.0, 1).samples, serial.samples)
+
+
+class _WithBlobs(_Batched):
+    """A standard normal whose blob is theta's square, counted per call."""
+
+    def __init__(self):
+        super().__init__()
+        self.blob_calls = 0
+
+    def with_blob(self, theta):
+        self.blob_calls += 1
+        return standard_normal(theta), theta**2
+
+    def batch_with_blobs(self, thetas):
+        return self.batch(thetas), thetas**2
+
+
+@pytest.mark.parametrize("n_jobs", [1, 2])
+def test_kept_blobs_are_each_draw_s_and_change_no_draw(n_jobs):
+    """The draws with their blobs are those without, and each blob is the
+    target's at its draw (over random-walk and independence moves, across
+    the ESS target's stop), at one more evaluation per chain."""
+    kwargs = dict(n_samples=2000, burn_in=400, n_jobs=n_jobs)
+    starts = np.random.default_rng(2).normal(size=(3, 2))
+    stopping = EssTarget(1000)
+    plain = _mixed(_Batched(), starts, 0.5, 8, stopping=stopping, **kwargs)
+    target = _WithBlobs()
+    kept = _mixed(target, starts, 0.5, 8, stopping=stopping, keep_blobs=True, **kwargs)
+    _assert_identical(kept, plain)
+    assert plain.blobs is None
+    assert kept.samples.shape[1] < 2000  # stopped at a checkpoint
+    np.testing.assert_array_equal(kept.blobs, kept.samples**2)
+    if n_jobs == 1:  # the calls are counted in this process
+        steps = 3 * (400 + kept.samples.shape[1])
+        assert 0 < target.blob_calls - 3 < steps
+
+
+def test_blobs_need_the_target_s_methods_and_no_labels():
+    with pytest.raises(TypeError, match="with_blob"):
+        _mixed(_Batched(), np.ones((1, 2)), 0.5, 0, keep_blobs=True, n_samples=10)
+    labelled = _WithBlobs()
+    labelled.n_labels = 2
+    with pytest.raises(ValueError, match="labelled"):
+        _mixed(labelled, np.ones((1, 2)), 0.5, 0, keep_blobs=True, n_samples=10)
+
+
+def test_a_blob_method_that_returns_too_few_blobs_is_an_error():
+    class Short(_WithBlobs):
+        def batch_with_blobs(self, thetas):
+            return self.batch(thetas), thetas[1:] ** 2
+
+    with pytest.raises(RuntimeError, match="blobs for"):
+        _mixed(Short(), np.ones((1, 2)), 0.9, 4, keep_blobs=True, n_samples=300)
 
 
 def test_no_burn_in_means_no_independence_moves():
