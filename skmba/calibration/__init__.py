@@ -40,6 +40,8 @@ file                               holds
                                    stated error (``discrepancy_tol``)
 ``_module2_converged_nodes.py``    the same with several parameters, theta
                                    at weighted importance nodes
+``_module2_proposal_mixture.py``   its draws of phi and their proposals
+``_module2_errors.py``             its Monte Carlo errors (delta method)
 ``_module2_theta_grid.py``         theta's grids for it: the likelihood
                                    evaluated coarsely, splined finely
 ``_module3_likelihood.py``         module 3: the global model (Eq. 4.30),
@@ -47,7 +49,12 @@ file                               holds
 ``_module3_mixture.py``            module 3 over module 2's draws
 ``_module3_low_rank.py``           the same through a low-rank model term
                                    (the determinant lemma), for batches
-``_module3_posterior.py``          the posterior of theta (``sampler``)
+``_module3_posterior.py``          the posterior of theta (``sampler``):
+                                   the log posterior, the chains
+``_module3_quadrature.py``         one parameter by quadrature
+``_module3_mixture_error.py``      the error of a mixture over fixed
+                                   module-2 draws, and its warning
+``_module3_update.py``             ``partial_fit``'s reweighted draws
 ``_module3_density.py``            the ``log_posterior`` method
 ``_module3_identifiability.py``    ``identifiability_`` and its warning
 ``_module4_prediction.py``         module 4: the predictions

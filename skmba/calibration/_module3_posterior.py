@@ -4,8 +4,9 @@ The likelihood of the field data and the simulations given ``theta`` is that of
 :class:`~skmba.calibration._module3_likelihood.GlobalModel` (Eq. 4.30, through the Schur
 complement), or of a :class:`~skmba.calibration._module3_mixture.ModelMixture` over
 module-2 draws. :class:`LogPosterior` adds the prior in user units (picklable, one per
-chain), and :func:`posterior_by_quadrature` (one parameter) and
-:func:`posterior_by_mcmc` (any number) return a :class:`PosteriorResult`.
+chain), and :func:`posterior_by_mcmc` (any number of parameters) returns a
+:class:`PosteriorResult`; one parameter goes by quadrature
+(:func:`~skmba.calibration._module3_quadrature.posterior_by_quadrature`).
 
 Examples
 --------
@@ -27,7 +28,6 @@ from skmba._core.linalg import (
 )
 from skmba._core.progress import as_progress
 from skmba._core.validation import seed_sequence
-from skmba._core.warn import warn
 from skmba.calibration._module3_mixture import IDLE_CHECK_THETAS, draw_weights_of
 from skmba.mcmc._diagnostics import MAX_RHAT, check_diagnostics, split_rhat
 from skmba.mcmc._posterior import PosteriorResult, laplace
@@ -35,11 +35,6 @@ from skmba.mcmc._run import run_chains
 from skmba.mcmc._stopping import EssTarget
 
 SAMPLERS = ("auto", "quadrature", "mcmc")
-# One-parameter posterior quadrature: nodes per pass, most passes, and the
-# nodes that must carry the mass for the posterior to count as resolved.
-_QUADRATURE_NODES = 201
-_QUADRATURE_PASSES = 8
-_RESOLVED_NODES = 40
 
 
 class LogPosterior:
@@ -288,83 +283,6 @@ class _ChainTarget:
     def components(self, u):
         """Joint log density of ``u`` (r,) and each module-2 draw (K,)."""
         return self.log_posterior.log_density_u_components(u[None, :])[0]
-
-
-def _quadrature_pass(log_posterior, lo, hi):
-    """One Gauss-Legendre pass: nodes, density, normalised weights."""
-    nodes_gl, weights_gl = np.polynomial.legendre.leggauss(_QUADRATURE_NODES)
-    t = 0.5 * (hi - lo) * nodes_gl + 0.5 * (hi + lo)
-    logp = log_posterior.batch(t[:, None])
-    if not np.any(np.isfinite(logp)):
-        log_posterior.raise_unevaluable(t)
-    density = np.exp(logp - np.max(logp))
-    w = weights_gl * density
-    return t, density, w / w.sum()
-
-
-def posterior_by_quadrature(log_posterior, n_samples, random_state=None, say=None):
-    """Adaptive Gauss-Legendre quadrature of a one-parameter posterior.
-
-    A first 201-node rule over the prior's 0.9999 interval locates the
-    mass; each further pass puts the rule on the region that holds all
-    but 1e-12 of the mass found by the previous one, until that region
-    spans at least 40 nodes (for a Gaussian posterior, a node spacing
-    below 0.4 standard deviations): at least two passes, at most eight.
-    A posterior still unresolved after eight passes is reported by a
-    warning. Draws come by inverse-CDF sampling of the posterior CDF,
-    integrated from the density at the nodes by the trapezoidal rule.
-
-    Parameters
-    ----------
-    log_posterior : LogPosterior
-    n_samples : int
-        Draws to return.
-    random_state : int, SeedSequence or None
-        Seed of the one uniform that offsets the stratified draws (see
-        :func:`~skmba._core.validation.seed_sequence`).
-    say : callable, default=None
-        Progress messages.
-
-    Returns
-    -------
-    PosteriorResult
-    """
-    say = say or (lambda message: None)
-    lo, hi = log_posterior.prior.bounds(0.9999)[0]
-    for sweep in range(_QUADRATURE_PASSES):
-        started = time.perf_counter()
-        interval = f"[{lo:.6g}, {hi:.6g}]"
-        t, density, w = _quadrature_pass(log_posterior, lo, hi)
-        mass = np.cumsum(w)
-        inside = np.flatnonzero((mass > 1e-12) & (mass < 1 - 1e-12))
-        i0 = max((inside[0] if inside.size else np.argmax(w)) - 2, 0)
-        i1 = min((inside[-1] if inside.size else np.argmax(w)) + 2, len(t) - 1)
-        lo, hi = t[i0], t[i1]
-        say(
-            f"module 3: quadrature pass {sweep + 1} ({len(t)} nodes on "
-            f"{interval}, {inside.size} carry the mass) in "
-            f"{time.perf_counter() - started:.1f} s"
-        )
-        if sweep >= 1 and inside.size >= _RESOLVED_NODES:
-            break
-    else:
-        warn(
-            f"The posterior of theta is narrower than the quadrature resolved "
-            f"after {_QUADRATURE_PASSES} passes (its mass lies on {inside.size} "
-            f"of {len(t)} nodes around {t[np.argmax(w)]:.8g}): theta_cov_ "
-            "and the spread of theta_samples_ are underestimated. Check the "
-            "simulations and the noise estimate (noise_), or use "
-            "sampler='mcmc'.",
-            UserWarning,
-        )
-    cdf = np.concatenate(
-        [[0.0], np.cumsum(0.5 * (density[1:] + density[:-1]) * np.diff(t))]
-    )
-    cdf = cdf / cdf[-1]
-    rng = np.random.default_rng(seed_sequence(random_state))
-    u = (np.arange(n_samples) + rng.uniform()) / n_samples
-    samples = np.interp(u, cdf, t)[:, None]
-    return PosteriorResult.from_rule(samples, t[:, None], w, (lo, hi))
 
 
 def _chain_starts(log_posterior, n_chains, rng, earlier=None):

@@ -64,11 +64,8 @@ from skmba.calibration._module3_identifiability import identifiability
 from skmba.calibration._module3_likelihood import GlobalModel
 from skmba.calibration._module3_mixture import ModelMixture
 from skmba.calibration._module3_mixture_error import fixed_draws_error
-from skmba.calibration._module3_posterior import (
-    LogPosterior,
-    posterior_by_mcmc,
-    posterior_by_quadrature,
-)
+from skmba.calibration._module3_posterior import LogPosterior, posterior_by_mcmc
+from skmba.calibration._module3_quadrature import posterior_by_quadrature
 from skmba.calibration._module3_update import reweighted_posterior
 from skmba.calibration._module4_prediction import PredictionRule, prediction_rule
 from skmba.mcmc._chain import MIN_ADAPTIVE_BURN_IN

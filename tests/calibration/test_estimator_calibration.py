@@ -25,6 +25,7 @@ import skmba.calibration._module2_plug_in as discrepancy_module
 import skmba.calibration._module2_prior_integral as integration_module
 import skmba.calibration._module3_likelihood as global_model_module
 import skmba.calibration._module3_posterior as posterior_module
+import skmba.calibration._module3_quadrature as quadrature_module
 import skmba.calibration._module4_prediction as prediction_module
 import skmba.calibration._pipeline as mba_module
 from skmba import ModularBayesCalibrator
@@ -1211,7 +1212,7 @@ def test_memory_check_uses_the_real_available_memory(monkeypatch):
 def test_unresolved_quadrature_posterior_is_reported(monkeypatch, capsys):
     # Make the resolution criterion unreachable: all eight passes run and
     # the calibrator says that theta_cov_ is then underestimated.
-    monkeypatch.setattr(posterior_module, "_RESOLVED_NODES", 202)
+    monkeypatch.setattr(quadrature_module, "_RESOLVED_NODES", 202)
     cal = ModularBayesCalibrator(prior=BAD.prior, n_restarts_optimizer=0, verbose=1)
     with pytest.warns(
         UserWarning, match=r"narrower than the quadrature resolved "
