@@ -127,15 +127,14 @@ def fixed_draws_error(posterior, rule, draw_weights, log_post, n_jobs=None):
         weights = np.full(len(thetas), 1.0 / len(thetas))
     elif posterior.method == "quadrature":
         thetas, weights = posterior.nodes, posterior.weights
-    else:  # reweighted: the rule's thetas, whose draws' weights are known
-        thetas, weights = rule.thetas, rule.weights
-    if posterior.method == "quadrature":
         # the draws idle at the rule's thetas stay idle (as in the chains)
         kept = np.flatnonzero(draw_weights.max(axis=0) > IDLE_WEIGHT)
         used = log_post.model.keeping(kept)[0]
         at_kept = draw_weights_at(used, log_post.scaler.theta(thetas), n_jobs)
         draw_weights = np.zeros((len(thetas), draw_weights.shape[1]))
         draw_weights[:, kept] = at_kept
+    else:  # reweighted: the rule's thetas, whose draws' weights are known
+        thetas, weights = rule.thetas, rule.weights
     return mixture_error(thetas, weights, draw_weights, parameter_names(log_post.prior))
 
 

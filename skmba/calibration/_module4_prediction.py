@@ -145,7 +145,7 @@ def prediction_rule(
         cdf = np.cumsum(given, axis=1)
         draws = (cdf < rng.permutation(u)[:, None]).sum(axis=1)
         picked = PredictionRule(
-            rule.thetas, rule.weights, np.minimum(draws, len(cdf.T) - 1)
+            rule.thetas, rule.weights, np.minimum(draws, cdf.shape[1] - 1)
         )
     return (picked, rule, given) if return_draw_weights else picked
 
