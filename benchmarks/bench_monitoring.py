@@ -107,14 +107,14 @@ def _updates(last, n_jobs):
     from skmba import ModularBayesCalibrator
     from skmba.datasets import make_bridge_monitoring
 
-    shares, reweighted = [], update.reweighted
+    shares, weighted = [], update.weighted
 
     def recorded(anchor, log_density, random_state=None):
-        posterior, share = reweighted(anchor, log_density, random_state)
+        posterior, share = weighted(anchor, log_density, random_state)
         shares.append(share)
         return posterior, share
 
-    update.reweighted = recorded
+    update.weighted = recorded
     data = make_bridge_monitoring(random_state=0)
     X = data.frame[["temperature"]]
     Y = data.frame[list(data.response_names)]

@@ -383,6 +383,7 @@ def posterior_by_mcmc(
     joint=False,
     target_ess=None,
     fallback_burn_in=None,
+    earlier_fits_proposal=False,
 ):
     """Metropolis-Hastings chains on the sampling coordinates.
 
@@ -420,6 +421,11 @@ def posterior_by_mcmc(
         ``burn_in`` (the second pass): when their draws would warn of R-hat
         above 1.01 for theta, the chains run again after this many steps
         (the draws of a run with this burn-in).
+    earlier_fits_proposal : bool, default=False
+        ``earlier`` are (resampled weighted) draws of this very posterior,
+        e.g. an update's refused reweighting: the chains' shared proposal
+        after the burn-in is fitted to them as well as to the burn-ins
+        (``proposal_points`` of :func:`~skmba.mcmc._run.run_chains`).
 
     Returns
     -------
@@ -432,11 +438,11 @@ def posterior_by_mcmc(
     started = time.perf_counter()
     starts, mode, cov = _chain_starts(log_posterior, n_chains, rng, earlier)
     r = starts.shape[1]
-    where = (
-        "starts from earlier draws (the first pass's or the last posterior's)"
-        if earlier is not None
-        else f"posterior mode found in {time.perf_counter() - started:.1f} s"
-    )
+    where = f"posterior mode found in {time.perf_counter() - started:.1f} s"
+    if earlier_fits_proposal:
+        where = "starts from a refused reweighting's draws, which also fit the proposal"
+    elif earlier is not None:
+        where = "starts from earlier draws (the first pass's or the last posterior's)"
     until = "" if target_ess is None else f" at most, until ESS {target_ess:g}"
     say(
         f"module 3: {where}; running {n_chains} chain(s) of {burn_in} burn-in + "
@@ -472,6 +478,11 @@ def posterior_by_mcmc(
             keep_log_density=check,
             # An earlier run's draws fit the independence proposal at once.
             moments=None if earlier is None else (mode, cov),
+            proposal_points=(
+                log_posterior.to_u(np.asarray(earlier, dtype=float))
+                if earlier_fits_proposal
+                else None
+            ),
             stopping=None if target_ess is None else EssTarget(target_ess),
             # each draw's p(phi_k | theta, data), for the error of a mixture
             keep_blobs=check and not joint and len(log_posterior.model.models) > 1,

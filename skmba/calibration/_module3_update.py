@@ -8,9 +8,10 @@ MCMC run's :class:`~skmba.mcmc._reweight.Anchor`, in joblib tasks (over
 the module-2 draws that carry weight at 100 evenly thinned nodes, as the
 chains do), and returns the reweighted posterior
 (:mod:`skmba.mcmc._reweight`) with ``p(phi_k | theta, data)`` at every
-node, which module 4's rule reads (each node is evaluated once); None when
-the weights are too uneven, and module 3 then runs its chains, started
-from the last posterior.
+node, which module 4's rule reads (each node is evaluated once). When the
+weights are too uneven, module 3 runs chains instead: started from the
+refused reweighting's draws, with a short burn-in, when they hold enough
+effective draws; else from the last posterior's, with the full burn-in.
 ``tests/calibration/test_module3_update.py`` checks it against the chains.
 """
 
@@ -21,14 +22,20 @@ import numpy as np
 from skmba._core.linalg import FactorizationError
 from skmba.calibration._module3_mixture import IDLE_CHECK_THETAS, draw_weights_of
 from skmba.mcmc._diagnostics import MIN_ESS
-from skmba.mcmc._reweight import REWEIGHT_SHARE, Anchor, reweighted
+from skmba.mcmc._reweight import (
+    REWEIGHT_SHARE,
+    Anchor,
+    accepted,
+    starts_chains,
+    weighted,
+)
 
 
 def reweighted_posterior(
     log_post, earlier, *, n_jobs=None, random_state=None, say=None
 ):
-    """The last run's draws reweighted to ``log_post``, and the module-2
-    draws' weights at them; ``(None, None)`` when they do not do.
+    """The last run's draws reweighted to ``log_post``, the module-2
+    draws' weights at them, and where chains may start when they do not do.
 
     Parameters
     ----------
@@ -55,16 +62,20 @@ def reweighted_posterior(
         the draws left out as idle; what module 4's rule needs
         (:func:`~skmba.calibration._module4_prediction.prediction_rule`).
         None with ``posterior``.
+    start : PosteriorResult or None
+        When ``posterior`` is None: the refused reweighting, if its draws
+        hold enough effective draws to start the chains near the new
+        posterior (:func:`~skmba.mcmc._reweight.starts_chains`), else None.
     """
     anchor = Anchor.of(earlier)
     if anchor is None:
-        return None, None
+        return None, None, None
     started = time.perf_counter()
     thetas = anchor.thetas
     log_prior = np.ravel(log_post.prior.logpdf(thetas))
     inside = np.flatnonzero(np.isfinite(log_prior))
     if not len(inside):  # no node inside the prior's support
-        return None, None
+        return None, None, None
     nodes = log_post.scaler.theta(thetas[inside])
     model = log_post.model
     # The module-2 draws idle at evenly thinned nodes (the probes, evaluated
@@ -80,16 +91,24 @@ def reweighted_posterior(
                 nodes[~probes], n_jobs
             )
     except FactorizationError:
-        return None, None  # the chains' own checks say why
+        return None, None, None  # the chains' own checks say why
     log_density = np.full(len(thetas), -np.inf)
     log_density[inside] = log_prior[inside] + np.logaddexp.reduce(values, axis=1)
-    posterior, share = reweighted(anchor, log_density, random_state)
+    posterior, share = weighted(anchor, log_density, random_state)
+    start = None
+    if not accepted(posterior, share):
+        start = posterior if starts_chains(posterior) else None
+        posterior = None
     if say is not None:
         outcome = f"Kish share {share:.2f}"
         if posterior is None:
+            source = (
+                "from its draws" if start is not None else "from the last posterior"
+            )
             outcome = (
                 f"refused (a Kish share of at least {REWEIGHT_SHARE} and an ESS "
-                f"of {MIN_ESS} needed, Kish share {share:.2f}): running chains"
+                f"of {MIN_ESS} needed, Kish share {share:.2f}): running chains "
+                f"{source}"
             )
         say(
             f"module 3: the last run's {len(thetas)} draws reweighted in "
@@ -97,7 +116,7 @@ def reweighted_posterior(
             f"{len(model.models)} module-2 draws with weight there; {outcome}"
         )
     if posterior is None:
-        return None, None
+        return None, None, start
     weights = np.zeros((len(thetas), len(model.models)))
     weights[inside] = draw_weights_of(values)
-    return posterior, weights
+    return posterior, weights, None

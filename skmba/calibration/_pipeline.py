@@ -501,8 +501,9 @@ def fit_module3(inputs, module2, seed, *, first_pass=False, earlier=None):
     """Module 3: the posterior of theta over module 2's draws, and module 4's
     rule over it.
 
-    ``earlier``: the first pass's posterior (propagated module 2), whose
-    MCMC draws start the second pass's chains.
+    ``earlier``: the first pass's posterior, whose draws start the second
+    pass's chains, or the last update's (reweighted when that does, else
+    :func:`_posterior`).
     """
     started = time.perf_counter()
     settings, emulator = inputs.settings, inputs.emulator
@@ -518,9 +519,9 @@ def fit_module3(inputs, module2, seed, *, first_pass=False, earlier=None):
         module2,
     )
     log_post = LogPosterior(inputs.prior, model, inputs.scaler, inputs.sims.theta)
-    posterior = draw_weights = None
+    posterior = draw_weights = start = None
     if earlier is not None:  # an update: the last run's draws may do
-        posterior, draw_weights = reweighted_posterior(
+        posterior, draw_weights, start = reweighted_posterior(
             log_post,
             earlier,
             n_jobs=settings.n_jobs,
@@ -528,7 +529,7 @@ def fit_module3(inputs, module2, seed, *, first_pass=False, earlier=None):
             say=inputs.progress.info,
         )
     if posterior is None:
-        posterior = _posterior(inputs, log_post, seed, first_pass, earlier)
+        posterior = _posterior(inputs, log_post, seed, first_pass, earlier, start)
     rule, nodes, draw_weights = prediction_rule(
         posterior,
         log_post,
@@ -559,8 +560,11 @@ def _sampler(inputs):
     return one_parameter_rule("sampler", s.sampler, inputs.prior.dim, several="mcmc")
 
 
-def _posterior(inputs, log_post, seed, first_pass, earlier):
-    """The posterior of theta by quadrature (one parameter) or MCMC."""
+def _posterior(inputs, log_post, seed, first_pass, earlier, start=None):
+    """The posterior of theta by quadrature (one parameter) or MCMC, the
+    chains from ``earlier``'s draws or from ``start``'s (a refused
+    reweighting's, which also fit their proposal); from the first pass's or
+    ``start``'s they burn in :func:`warm_burn_in` steps."""
     s = inputs.settings.sampler
     if _sampler(inputs) == "quadrature":
         return posterior_by_quadrature(
@@ -574,8 +578,10 @@ def _posterior(inputs, log_post, seed, first_pass, earlier):
         if earlier is not None and earlier.method in ("mcmc", "reweighted")
         else None
     )
+    if start is not None:
+        draws = start.samples
     fallback = None
-    if draws is not None and inputs.warm is None:  # the second pass
+    if draws is not None and (inputs.warm is None or start is not None):
         length["burn_in"] = warm_burn_in(s.burn_in)
         fallback = s.burn_in if length["burn_in"] < s.burn_in else None
     return posterior_by_mcmc(
@@ -589,4 +595,5 @@ def _posterior(inputs, log_post, seed, first_pass, earlier):
         joint=first_pass,
         earlier=draws,
         fallback_burn_in=fallback,
+        earlier_fits_proposal=start is not None,
     )

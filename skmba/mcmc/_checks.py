@@ -121,3 +121,18 @@ def check_moments(moments, r):
     if not (np.all(np.isfinite(mean)) and np.all(np.isfinite(cov))):
         raise ValueError("moments must be finite (mean and covariance).")
     return mean, cov
+
+
+def check_points(points, r):
+    """``points`` as a finite float array (m, r) with m >= 2, or None."""
+    if points is None:
+        return None
+    points = np.asarray(points, dtype=float)
+    if points.ndim != 2 or points.shape[1] != r or len(points) < 2:
+        raise ValueError(
+            f"proposal_points must be an array of shape (m, {r}) with at least "
+            f"two rows for starts with {r} columns; got shape {points.shape}"
+        )
+    if not np.all(np.isfinite(points)):
+        raise ValueError("proposal_points must be finite.")
+    return points

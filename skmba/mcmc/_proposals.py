@@ -188,6 +188,13 @@ def merge_moments(counts, means, m2s):
     return n, mean, m2
 
 
+def points_moments(points):
+    """Mean and covariance (``+ epsilon I``) of points (m, r), one per row."""
+    r = points.shape[1]
+    cov = np.cov(points, rowvar=False).reshape(r, r)
+    return points.mean(axis=0), cov + _EPSILON * np.eye(r)
+
+
 def window_moments(counts, means, m2s, accepts):
     """Mean and covariance (``+ epsilon I``) of a window of burn-in blocks.
 

@@ -12,9 +12,12 @@ chains that would need several per effective draw.
 
 - :class:`Anchor`: the thinned draws of the last run and their old log
   density, reweighted again by every update until they no longer suffice;
-- :func:`reweighted`: the weights, their Kish share, and the
-  :class:`~skmba.mcmc._posterior.PosteriorResult` they make (``None``
-  below :data:`REWEIGHT_SHARE`, when new chains must be run);
+- :func:`weighted`: the weights, their Kish share, and the
+  :class:`~skmba.mcmc._posterior.PosteriorResult` they make;
+  :func:`accepted`: whether it stands for the new posterior (a share of
+  at least :data:`REWEIGHT_SHARE`), else new chains must be run, which a
+  refused posterior with enough effective draws may still start
+  (:func:`starts_chains`); :func:`reweighted`: both in one call;
 - :func:`systematic_indices`: equally weighted draws of weighted nodes.
 
 Why the share and the thinning: docs/internals.rst, section
@@ -118,8 +121,8 @@ def systematic_indices(weights, n, rng):
     return np.minimum(np.searchsorted(np.cumsum(weights), u), len(weights) - 1)
 
 
-def reweighted(anchor, log_density, random_state=None):
-    """The anchor's draws weighted to a new posterior.
+def weighted(anchor, log_density, random_state=None):
+    """The anchor's draws weighted to a new posterior, however uneven.
 
     Parameters
     ----------
@@ -135,10 +138,9 @@ def reweighted(anchor, log_density, random_state=None):
     posterior : PosteriorResult or None
         Method ``"reweighted"``: the weighted moments, ``nodes`` and
         ``weights``, ``samples`` resampled from them (M draws), ``ess`` the
-        anchor's times the Kish share, ``anchor``. None when the share is
-        below :data:`REWEIGHT_SHARE`, the ESS below
-        :data:`~skmba.mcmc._diagnostics.MIN_ESS`, or no node has a finite
-        density.
+        anchor's times the Kish share, ``anchor``. None when no node has a
+        finite density. Whether it stands for the new posterior is
+        :func:`accepted`'s call.
     share : float
         The Kish share of the weights (0 without a finite weight).
     """
@@ -149,8 +151,6 @@ def reweighted(anchor, log_density, random_state=None):
     log_w = np.where(finite, log_w, -np.inf)
     w = np.exp(log_w - special.logsumexp(log_w))
     share = float(1.0 / np.sum(w**2) / len(w))
-    if share < REWEIGHT_SHARE or np.min(anchor.ess) * share < MIN_ESS:
-        return None, share
     thetas = anchor.thetas
     rng = np.random.default_rng(seed_sequence(random_state))
     samples = thetas[systematic_indices(w, len(w), rng)]
@@ -168,3 +168,36 @@ def reweighted(anchor, log_density, random_state=None):
         anchor=anchor,
     )
     return posterior, share
+
+
+def starts_chains(posterior):
+    """Whether weighted draws (:func:`weighted`) place new chains near the
+    new posterior, so that a short burn-in serves: an ESS of at least
+    :data:`~skmba.mcmc._diagnostics.MIN_ESS` (measured:
+    docs/internals.rst, section skmba.mcmc._reweight)."""
+    return posterior is not None and float(np.min(posterior.ess)) >= MIN_ESS
+
+
+def accepted(posterior, share):
+    """Whether weighted draws (:func:`weighted`) stand for the new
+    posterior: a Kish share of at least :data:`REWEIGHT_SHARE`, and enough
+    effective draws to start chains (:func:`starts_chains`)."""
+    return share >= REWEIGHT_SHARE and starts_chains(posterior)
+
+
+def reweighted(anchor, log_density, random_state=None):
+    """The anchor's draws weighted to a new posterior, if they do.
+
+    :func:`weighted`, and its posterior only when :func:`accepted`.
+
+    Returns
+    -------
+    posterior : PosteriorResult or None
+        None when the share is below :data:`REWEIGHT_SHARE`, the ESS below
+        :data:`~skmba.mcmc._diagnostics.MIN_ESS`, or no node has a finite
+        density.
+    share : float
+        The Kish share of the weights (0 without a finite weight).
+    """
+    posterior, share = weighted(anchor, log_density, random_state)
+    return (posterior if accepted(posterior, share) else None), share

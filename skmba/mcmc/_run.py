@@ -44,12 +44,13 @@ from skmba.mcmc._chain import MIN_ADAPTIVE_BURN_IN, Chain
 from skmba.mcmc._checks import (
     check_independence,
     check_moments,
+    check_points,
     check_starts,
     per_chain,
     proposal_chols,
 )
 from skmba.mcmc._diagnostics import ess_bulk, split_rhat
-from skmba.mcmc._proposals import shared_proposal, window_moments
+from skmba.mcmc._proposals import points_moments, shared_proposal, window_moments
 from skmba.mcmc._target import evaluate
 
 # With a progress bar, the chains run in about this many segments, after
@@ -147,6 +148,7 @@ def run_chains(
     moments=None,
     stopping=None,
     keep_blobs=False,
+    proposal_points=None,
 ):
     """Run adaptive Metropolis-Hastings chains in parallel.
 
@@ -256,6 +258,15 @@ default=None
         bit for bit). :attr:`ChainResult.blobs` holds them, at the cost of
         one more evaluation per chain (the point where its draws begin).
         Not for a labelled target.
+    proposal_points : array_like of shape (m, r), default=None
+        Draws of (nearly) the target known from elsewhere, in the chains'
+        coordinates (e.g. an earlier run's draws reweighted to it): the
+        proposal that the chains share after their burn-in is fitted to
+        them together with the burn-ins' windows, so that a short burn-in
+        gives it as many points as a long one. Used where the chains share
+        a proposal (several chains, ``independence`` > 0, a burn-in of at
+        least 100 steps); the draws still follow the target exactly, since
+        the proposal is fixed before the first draw.
 
     Returns
     -------
@@ -295,6 +306,7 @@ default=None
     chols = proposal_chols(proposal_cov, n_chains, r)
     independence = check_independence(independence)
     _check_blobs(densities, keep_blobs)
+    proposal_points = check_points(proposal_points, r)
     start_values = _start_values(densities, starts)
     seeds = seed_sequence(random_state).spawn(n_chains)
     return _run_parallel(
@@ -310,6 +322,7 @@ default=None
         moments=check_moments(moments, r),
         stopping=stopping,
         keep_blobs=bool(keep_blobs),
+        proposal_points=proposal_points,
     )
 
 
@@ -350,6 +363,7 @@ def _run_parallel(
     moments=None,
     stopping=None,
     keep_blobs=False,
+    proposal_points=None,
 ):
     """Run each chain's ``(log_density, start, start_value, chol, seed)``.
 
@@ -382,12 +396,14 @@ def _run_parallel(
                 keep_blobs=keep_blobs,
             )
         )
-    _advance_in_segments(densities, states, n_jobs, blas_order, progress, stopping)
+    _advance_in_segments(
+        densities, states, n_jobs, blas_order, progress, stopping, proposal_points
+    )
     return _stacked_result(states, keep_log_density)
 
 
 def _advance_in_segments(
-    densities, states, n_jobs, blas_order, progress, stopping=None
+    densities, states, n_jobs, blas_order, progress, stopping=None, points=None
 ):
     """Run the chains ``states`` to their end, replacing each by the state
     its last task returned; the bar moves as each segment returns. At each
@@ -421,7 +437,7 @@ def _advance_in_segments(
                 _report_chain(progress, state, done[c])
                 done[c] = state.steps
             if shared and until == burn_in:
-                _share_proposal(states)
+                _share_proposal(states, points)
             if until in checks and stopping.met(
                 np.stack([state.samples[: state.drawn] for state in states])
             ):
@@ -446,9 +462,10 @@ def _shares_proposal(states):
     )
 
 
-def _share_proposal(states):
+def _share_proposal(states, extra=None):
     """Give every chain the independence proposal fitted to the latest
-    halves of their burn-ins together
+    halves of their burn-ins together, and to the ``extra`` points
+    (``proposal_points``) with them
     (:func:`~skmba.mcmc._proposals.shared_proposal`); each chain keeps its
     own when too few moves were accepted there (see
     :func:`~skmba.mcmc._proposals.window_moments`) or their covariance is
@@ -460,6 +477,9 @@ def _share_proposal(states):
     if moments is None:
         return
     points = np.concatenate([state.window_path() for state in states])
+    if extra is not None:
+        points = np.concatenate([points, extra])
+        moments = points_moments(points)
     try:
         proposal = shared_proposal(points, *moments)
     except linalg.LinAlgError:

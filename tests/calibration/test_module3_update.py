@@ -148,7 +148,7 @@ def test_module_4_reads_the_weights_the_reweighting_computed(
     monkeypatch.setattr(
         pipeline,
         "reweighted_posterior",
-        lambda *args, **kwargs: (own(*args, **kwargs)[0], None),
+        lambda *args, **kwargs: (own(*args, **kwargs)[0], None, None),
     )
     recomputed = _update(eleven_months, day)
     X_new = X[day].iloc[::3]
@@ -191,3 +191,47 @@ def test_a_last_run_that_did_not_converge_is_not_reweighted():
         warnings.simplefilter("ignore")
         cal.partial_fit(X[day], Y[day])
     assert hasattr(cal, "theta_chains_") and not hasattr(cal, "theta_nodes_")
+
+
+def _chains_arguments(monkeypatch):
+    """The keyword arguments of the update's chains (posterior_by_mcmc)."""
+    calls, original = [], pipeline.posterior_by_mcmc
+
+    def spy(log_posterior, **kwargs):
+        calls.append(kwargs)
+        return original(log_posterior, **kwargs)
+
+    monkeypatch.setattr(pipeline, "posterior_by_mcmc", spy)
+    return calls
+
+
+def test_chains_start_from_a_refused_reweighting_with_enough_effective_draws(
+    eleven_months, monkeypatch
+):
+    """A refused reweighting whose draws are worth MIN_ESS effective draws
+    places the chains: they start from its draws, which also fit their
+    proposal, and burn in as a second pass (the full burn-in if they do
+    not mix); with fewer, from the last posterior's after the full one."""
+    day = (MONTH == 12) & (DAY == 1)
+    last = pickle.loads(eleven_months)
+    monkeypatch.setattr(reweight_module, "REWEIGHT_SHARE", 2.0)
+    calls = _chains_arguments(monkeypatch)
+    cal = _update(eleven_months, day)
+    [kwargs] = calls
+    assert kwargs["earlier_fits_proposal"]
+    assert (kwargs["burn_in"], kwargs["fallback_burn_in"]) == (
+        pipeline.warm_burn_in(FAST["burn_in"]),
+        FAST["burn_in"],
+    )
+    # systematic resampling of the anchor's nodes (thinned chains)
+    nodes = {tuple(row) for row in last.theta_chains_.reshape(-1, 2)}
+    assert all(tuple(row) in nodes for row in kwargs["earlier"])
+    assert hasattr(cal, "theta_chains_") and np.all(cal.rhat_ <= 1.01)
+    # Below MIN_ESS effective draws: the last posterior's draws, full burn-in.
+    calls.clear()
+    monkeypatch.setattr(reweight_module, "MIN_ESS", 10**9)
+    _update(eleven_months, day)
+    [kwargs] = calls
+    assert not kwargs["earlier_fits_proposal"]
+    assert (kwargs["burn_in"], kwargs["fallback_burn_in"]) == (FAST["burn_in"], None)
+    np.testing.assert_array_equal(kwargs["earlier"], last.theta_samples_)
