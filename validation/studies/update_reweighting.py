@@ -7,14 +7,19 @@ monitoring data set against long chains on the same update.
 
 Per seed ``s``: ``make_bridge_monitoring(random_state=s)``, the calibrator's
 defaults with ``bin_width=2`` and ``random_state=s``, ``fit`` on the first
-364 days, then three versions of the last day's update from that same fit
+364 days, then four versions of the last day's update from that same fit
 (the same module 2, so only module 3 differs):
 
 - ``reweighted``: ``partial_fit`` as shipped;
 - ``chains``: the same update with the reweighting refused (its share
-  threshold set above one in the worker), the chains of the defaults;
-- ``reference``: the same with 4 chains of ``--reference-draws`` draws
-  (fixed length).
+  threshold set above one in the worker), the chains of the defaults, as
+  shipped: started from the refused reweighting's draws, which also fit
+  their proposal, after the short burn-in, when those hold enough
+  effective draws (:func:`skmba.mcmc._reweight.starts_chains`);
+- ``full burn-in``: the same, the chains started from the last
+  posterior's draws after the full burn-in (before 2026-11-30);
+- ``reference``: as ``full burn-in`` with 4 chains of
+  ``--reference-draws`` draws (fixed length).
 
 For the mean and the sd of each parameter, ``z = (estimate - reference) /
 sqrt(se^2 + se_ref^2)``, with ``se`` of two kinds: from each run's reported
@@ -23,8 +28,10 @@ sqrt(se^2 + se_ref^2)``, with ``se`` of two kinds: from each run's reported
 (ArviZ's ``mcse`` of chains; the delta method of self-normalised importance
 sampling for the reweighted nodes). Printed: how many updates reweighted,
 their Kish shares and ESS, the time of each version, and per quantity the
-rms z of the reweighted and of the chains' updates with the range honest
-errors give (chi-squared with one degree of freedom per seed).
+rms z of the reweighted updates with the range honest errors give
+(chi-squared with one degree of freedom per seed), and over every seed the
+rms z of both chains' versions, their draws per chain, largest R-hat and
+time.
 
 ``--days n`` updates with the last ``n`` days instead (the fit on the days
 before), and ``--fit-days f`` fits the first ``f`` days and updates with
@@ -53,6 +60,7 @@ import threadpoolctl
 from joblib import Parallel, delayed
 from scipy import stats
 
+import skmba.calibration._module3_update as update_module
 import skmba.mcmc._reweight as reweight_module
 from skmba import ModularBayesCalibrator
 from skmba.datasets import make_bridge_monitoring
@@ -73,6 +81,7 @@ def _summary(cal, seconds):
         "nodes": getattr(cal, "theta_nodes_", None),
         "weights": getattr(cal, "theta_weights_", None),
         "reweighted": not hasattr(cal, "theta_chains_"),
+        "rhat": float(np.max(getattr(cal, "rhat_", np.nan))),
         "share": (
             float(1.0 / np.sum(cal.theta_weights_**2) / len(cal.theta_weights_))
             if hasattr(cal, "theta_weights_")
@@ -83,7 +92,7 @@ def _summary(cal, seconds):
 
 
 def _seed(seed, reference_draws, days=1, share=None, fit_days=None):
-    """The three versions of one seed's update with ``days`` days after the
+    """The four versions of one seed's update with ``days`` days after the
     first ``fit_days`` (None: the year's last ``days``); ``share``: the
     reweighted version's threshold (None: the shipped one)."""
     data = make_bridge_monitoring(random_state=seed)
@@ -104,21 +113,34 @@ def _seed(seed, reference_draws, days=1, share=None, fit_days=None):
         )
         fitted = pickle.dumps(cal)
         shipped = reweight_module.REWEIGHT_SHARE
+        starts = update_module.starts_chains
+        long = {"n_samples": reference_draws, "target_ess": None}
+        # (parameters, share threshold, whether a refused reweighting may
+        # start the chains)
         versions = {
-            "reweighted": ({}, shipped if share is None else share),
-            "chains": ({}, 2.0),
-            "reference": ({"n_samples": reference_draws, "target_ess": None}, 2.0),
+            "reweighted": ({}, shipped if share is None else share, True),
+            "chains": ({}, 2.0, True),
+            "full burn-in": ({}, 2.0, False),
+            "reference": (long, 2.0, False),
         }
         try:
-            for name, (params, threshold) in versions.items():
+            for name, (params, threshold, from_weights) in versions.items():
                 reweight_module.REWEIGHT_SHARE = threshold  # above one: chains
+                update_module.starts_chains = starts if from_weights else _never
                 update = pickle.loads(fitted).set_params(**params)
                 started = time.perf_counter()
                 update.partial_fit(X[day], Y[day])
                 out[name] = _summary(update, time.perf_counter() - started)
         finally:
             reweight_module.REWEIGHT_SHARE = shipped
+            update_module.starts_chains = starts
     return out
+
+
+def _never(posterior):
+    """No refused reweighting starts the chains (the full burn-in from the
+    last posterior's draws, as before 2026-11-30)."""
+    return False
 
 
 def _ess_errors(run, kurtosis):
@@ -188,7 +210,7 @@ def main(argv=None):
     ess = np.array([r["reweighted"]["ess"].min() for r in reweighted])
     seconds = {
         name: np.array([r[name]["seconds"] for r in results])
-        for name in ("reweighted", "chains", "reference")
+        for name in ("reweighted", "chains", "full burn-in", "reference")
     }
     threshold = reweight_module.REWEIGHT_SHARE if args.share is None else args.share
     print(
@@ -211,6 +233,7 @@ def main(argv=None):
         "update time (median, s): "
         + ", ".join(f"{k} {np.median(v):.1f}" for k, v in seconds.items())
     )
+    _chains_table(results)
     n = len(reweighted)
     if not n:
         return
@@ -237,6 +260,36 @@ def main(argv=None):
                 f"{name} | {quantity} | {rms[0]:.2f}, {rms[1]:.2f} | "
                 f"{rms[2]:.2f}, {rms[3]:.2f}"
             )
+
+
+def _chains_table(results):
+    """Both chains' versions against the reference, over every seed."""
+    band = rms_band(len(results))
+    print(
+        "chains (as shipped) and full burn-in against the reference over all "
+        f"{len(results)} seeds, rms z with errors from ArviZ's mcse (95 % range "
+        f"if honest: [{band[0]:.2f}, {band[1]:.2f}])"
+    )
+    versions = ("chains", "full burn-in")
+    for name in versions:
+        runs = [r[name] for r in results]
+        draws = [run["chains"].shape[1] for run in runs]
+        print(
+            f"{name}: draws per chain median {np.median(draws):.0f} "
+            f"({min(draws)}-{max(draws)}), largest R-hat "
+            f"{max(run['rhat'] for run in runs):.4f}, median "
+            f"{np.median([run['seconds'] for run in runs]):.1f} s"
+        )
+    z = {
+        name: np.array([_z(r[name], r["reference"], "mcse") for r in results])
+        for name in versions
+    }
+    names = make_bridge_monitoring(random_state=0).parameter_names
+    print("parameter | quantity | chains | full burn-in")
+    for j, name in enumerate(names):
+        for i, quantity in enumerate(QUANTITIES):
+            rms = [np.sqrt(np.mean(v[:, i, j] ** 2)) for v in z.values()]
+            print(f"{name} | {quantity} | {rms[0]:.2f} | {rms[1]:.2f}")
 
 
 if __name__ == "__main__":
