@@ -48,7 +48,6 @@ from skmba._core.linalg import FactorizationError, proposal_covariance
 from skmba._core.progress import as_progress, start_reporter
 from skmba._core.regression import regression_basis
 from skmba._core.search import gradient_hessian, preconditioned_minimum
-from skmba._core.threads import stack_map, stack_threads
 from skmba._core.validation import seed_sequence
 from skmba.calibration._module2_kernel import bounded_kernel, discrepancy_kernel
 from skmba.calibration._module2_plug_in import DiscrepancyFit, check_module2_memory
@@ -310,17 +309,10 @@ def _noise_posterior_mean(coords, mode, cov, seed):
     module-2 posterior (restricted likelihood, prior and Jacobian).
     """
     draws, _, log_q = proposal_draws(coords, mode, cov, N_NOISE_DRAWS, seed)
-
-    def values(share):
-        # errstate is per thread: each share of stack_map's sets its own.
-        with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
-            return [coords.log_posterior(v, eval_gradient=False) for v in share]
-
-    # One share per core of the fit's budget (the solves release the GIL):
-    # the same values whatever the threads, each evaluation on one BLAS
-    # thread inside a small-order block (skmba._core.threads).
-    shares = np.array_split(draws, max(1, stack_threads()))
-    log_post = np.array([value for part in stack_map(values, shares) for value in part])
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+        log_post = np.array(
+            [coords.log_posterior(v, eval_gradient=False) for v in draws]
+        )
     log_w = np.where(np.isfinite(log_post), log_post - log_q, -np.inf)
     w = np.exp(log_w - special.logsumexp(log_w))
     noise = np.array([coords.fit.unpack(coords.to_p(v)[0])[1] for v in draws])
