@@ -14,6 +14,9 @@ file                   holds
 ``_checks.py``         ``run_chains``' arguments, checked
 ``_diagnostics.py``    split R-hat and bulk ESS (Vehtari et al. 2021)
 ``_posterior.py``      a posterior's draws and moments, Laplace approximation
+``_stopping.py``       the ESS target that ends the chains' draws
+``_reweight.py``       an earlier run's draws reweighted to a new posterior,
+                       or placing its chains when they do not do
 =====================  ===================================================
 
 Examples

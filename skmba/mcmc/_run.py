@@ -263,7 +263,7 @@ default=None
         coordinates (e.g. an earlier run's draws reweighted to it): the
         proposal that the chains share after their burn-in is fitted to
         them together with the burn-ins' windows, so that a short burn-in
-        gives it as many points as a long one. Used where the chains share
+        does not leave it short of points. Used where the chains share
         a proposal (several chains, ``independence`` > 0, a burn-in of at
         least 100 steps); the draws still follow the target exactly, since
         the proposal is fixed before the first draw.

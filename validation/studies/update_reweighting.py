@@ -64,6 +64,7 @@ import skmba.calibration._module3_update as update_module
 import skmba.mcmc._reweight as reweight_module
 from skmba import ModularBayesCalibrator
 from skmba.datasets import make_bridge_monitoring
+from skmba.mcmc._reweight import REWEIGHT_SHARE
 from validation.statistics import rms_band
 
 DAY = 24
@@ -123,6 +124,14 @@ def _seed(seed, reference_draws, days=1, share=None, fit_days=None):
             "full burn-in": ({}, 2.0, False),
             "reference": (long, 2.0, False),
         }
+        weighted, shares = update_module.weighted, []
+
+        def recorded(*args, **kwargs):  # the Kish share, the same in every version
+            posterior, kish = weighted(*args, **kwargs)
+            shares.append(kish)
+            return posterior, kish
+
+        update_module.weighted = recorded
         try:
             for name, (params, threshold, from_weights) in versions.items():
                 reweight_module.REWEIGHT_SHARE = threshold  # above one: chains
@@ -134,6 +143,8 @@ def _seed(seed, reference_draws, days=1, share=None, fit_days=None):
         finally:
             reweight_module.REWEIGHT_SHARE = shipped
             update_module.starts_chains = starts
+            update_module.weighted = weighted
+    out["share"] = shares[0] if shares else np.nan
     return out
 
 
@@ -298,6 +309,13 @@ def _chains_table(results):
         f"{len(results)} updates (rms z over those, range "
         f"[{low[0]:.2f}, {low[1]:.2f}]: the last two columns)"
     )
+    # Where the shipped calibrator itself runs placed chains: a share below
+    # its threshold (the others it reweights).
+    natural = placed & (np.array([r["share"] for r in results]) < REWEIGHT_SHARE)
+    if not natural.any():
+        print(f"none of those below the Kish share {REWEIGHT_SHARE}")
+    else:
+        _natural_line(z, natural)
     names = make_bridge_monitoring(random_state=0).parameter_names
     print("parameter | quantity | chains | full burn-in | placed: chains, full burn-in")
     for j, name in enumerate(names):
@@ -308,6 +326,22 @@ def _chains_table(results):
                 f"{name} | {quantity} | {rms[0]:.2f} | {rms[1]:.2f} | "
                 f"{rms[2]:.2f}, {rms[3]:.2f}"
             )
+
+
+def _natural_line(z, natural):
+    """rms z of both chains' versions over the updates whose chains the
+    shipped calibrator itself runs, placed (a share below its threshold)."""
+    band = rms_band(max(1, int(natural.sum())))
+    rms = {name: np.sqrt(np.mean(v[natural] ** 2, axis=0)) for name, v in z.items()}
+    print(
+        f"of those, {natural.sum()} below the Kish share {REWEIGHT_SHARE} (the "
+        "shipped calibrator's chain days): rms z of chains and full burn-in "
+        f"per parameter, range [{band[0]:.2f}, {band[1]:.2f}]: "
+        + "; ".join(
+            f"{q} {rms['chains'][i].round(2)}, {rms['full burn-in'][i].round(2)}"
+            for i, q in enumerate(QUANTITIES)
+        )
+    )
 
 
 if __name__ == "__main__":
