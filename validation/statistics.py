@@ -11,7 +11,8 @@ Holds, with no fitting and no output:
   "one draw" estimate);
 - over replicates: :func:`wilson_interval`, :func:`mean_interval` (the
   t-interval of a mean coverage over seeds), :func:`rms` and its range
-  :func:`rms_band`, the rank
+  :func:`rms_band`, :func:`spread_ratio` (the spread of estimates over
+  seeds against their reported errors), the rank
   histogram and its chi-square and KS tests (:func:`rank_histogram`,
   :func:`rank_tests`, :func:`n_rank_bins`), the simultaneous 95 % band of
   the rank ECDF (:func:`rank_ecdf_band`), :func:`message_kind` and
@@ -166,6 +167,41 @@ def rms_band(n, level=LEVEL):
     normal z: ``n rms^2`` is chi-squared with ``n`` degrees of freedom. An
     rms z outside it says the errors behind the z are not honest."""
     return np.sqrt(stats.chi2.ppf([(1 - level) / 2, (1 + level) / 2], n) / n)
+
+
+def spread_ratio(estimates, errors, level=LEVEL):
+    """How the spread of estimates over seeds compares with their errors.
+
+    ``estimates`` and ``errors`` (S, K, ...): ``K`` runs (seeds) of each of
+    ``S`` problems, each estimate with its reported standard error. The
+    ratio is ``sqrt(sum ((x_sk - mean_k x_sk) / e_sk)^2 / (S (K - 1)))``
+    over the problems and runs, per remaining index: one when the errors
+    are honest, above one when they read low. Returns ``(ratio, lower,
+    upper)``, the last two its ``level`` interval, taking ``S (K - 1)``
+    times its square as chi-squared with ``S (K - 1)`` degrees of freedom
+    (exact for normal estimates whose runs of one problem share a known
+    error).
+
+    Examples
+    --------
+    >>> x = np.array([[1.0, 3.0], [0.0, 2.0]])[..., None]  # 2 problems, 2 runs
+    >>> ratio, lower, upper = spread_ratio(x, np.full_like(x, np.sqrt(2.0)))
+    >>> round(float(ratio[0]), 12), bool(lower[0] < 1.0 < upper[0])
+    (1.0, True)
+    """
+    x = np.asarray(estimates, dtype=float)
+    e = np.asarray(errors, dtype=float)
+    if x.shape != e.shape or x.ndim < 2 or x.shape[1] < 2:
+        raise ValueError(
+            "estimates and errors must have one shape (S, K, ...) with K >= 2 "
+            f"runs per problem; got {x.shape} and {e.shape}"
+        )
+    df = x.shape[0] * (x.shape[1] - 1)
+    z = (x - x.mean(axis=1, keepdims=True)) / e
+    ratio = np.sqrt(np.sum(z**2, axis=(0, 1)) / df)
+    # df (ratio / true ratio)^2 ~ chi2(df): its quantiles bound the true one
+    small, large = np.sqrt(stats.chi2.ppf([(1 - level) / 2, (1 + level) / 2], df) / df)
+    return ratio, ratio / large, ratio / small
 
 
 def n_rank_bins(n):

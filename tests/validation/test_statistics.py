@@ -25,6 +25,7 @@ from validation.statistics import (
     rank_tests,
     rms,
     rms_band,
+    spread_ratio,
     thinned,
     wilson_interval,
 )
@@ -107,6 +108,32 @@ def test_rms_band_is_the_chi_square_range_and_holds_its_level():
     lo, hi = rms_band(24)
     inside = np.mean((rms(z.T) >= lo) & (rms(z.T) <= hi))
     assert abs(inside - 0.95) < 4 * math.sqrt(0.95 * 0.05 / 20_000)
+
+
+def test_spread_ratio_is_one_for_honest_errors_and_scales_with_them():
+    # 8 problems of different means, 30 runs each, normal estimates of sd 2.
+    rng = np.random.default_rng(1)
+    x = 2.0 * rng.standard_normal((8, 30, 3)) + 50.0 * rng.standard_normal((8, 1, 3))
+    honest = np.full_like(x, 2.0)
+    ratio, lower, upper = spread_ratio(x, honest)
+    assert np.all((lower < 1.0) & (1.0 < upper))
+    # Errors reported half as large: the ratio doubles, the interval too.
+    half = spread_ratio(x, honest / 2.0)
+    for got, want in zip(half, (ratio, lower, upper), strict=True):
+        np.testing.assert_allclose(got, 2.0 * want, rtol=1e-12)
+    # The formula by hand on one problem of three runs.
+    one = np.array([[1.0, 2.0, 6.0]])
+    by_hand = math.sqrt(((1 - 3) ** 2 + (2 - 3) ** 2 / 4 + (6 - 3) ** 2) / 2)
+    r1, _, _ = spread_ratio(one, np.array([[1.0, 2.0, 1.0]]))
+    assert r1 == pytest.approx(by_hand)
+    # The interval holds its level: 4,000 sets of 4 x 10 honest estimates
+    # (Monte Carlo error of the share 0.0034).
+    z = rng.standard_normal((4, 10, 4000))
+    lo, hi = spread_ratio(z, np.ones_like(z))[1:]
+    inside = np.mean((lo < 1.0) & (1.0 < hi))
+    assert abs(inside - 0.95) < 4 * math.sqrt(0.95 * 0.05 / 4000)
+    with pytest.raises(ValueError, match="K >= 2"):
+        spread_ratio(np.ones((3, 1)), np.ones((3, 1)))
 
 
 def test_rank_histogram_shares_and_counts():

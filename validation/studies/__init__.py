@@ -19,7 +19,11 @@ Each module is a script, ``python -m validation.studies.<name> --help``:
 - ``discrepancy_continuum``: coverage and the warning along a continuum of
   discrepancies from a1 to c3 (inside and outside the span of E's
   sensitivity, 10-50 dB) and on designs with two inputs, four responses
-  and three parameters (cases in :mod:`validation.continuum_cases`).
+  and three parameters (cases in :mod:`validation.continuum_cases`);
+- ``update_reweighting`` and ``update_chain_spread``: the bridge year's
+  updates, reweighted or by chains, against long chains, and the chains'
+  reported errors against their spread over chain seeds on one target
+  (``docs/internals.rst``, section skmba.mcmc._reweight).
 
 They take their cases from :func:`validation.suite.registry` (or
 :mod:`validation.cases`) and their statistics from
