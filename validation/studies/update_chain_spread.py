@@ -123,7 +123,14 @@ def one_seed(seed, fit_days, days, chain_seeds, fixed_draws=None, versions=VERSI
             )
             inputs = replace(inputs, settings=replace(inputs.settings, sampler=sampler))
         out = {"share": share, "from_weights": start is not None}
+        # Runs by whether the refused reweighting places them: without its
+        # draws, both versions are one run (the same seeds, the same bits).
+        done = {}
         for version in versions:
+            placed = start if version == "placed" else None
+            if (placed is not None) in done:
+                out[version] = done[placed is not None]
+                continue
             runs = []
             for k in range(chain_seeds):
                 started = time.perf_counter()
@@ -133,7 +140,7 @@ def one_seed(seed, fit_days, days, chain_seeds, fixed_draws=None, versions=VERSI
                     10_000 + k,
                     False,
                     earlier,
-                    start if version == "placed" else None,
+                    placed,
                 )
                 seconds = time.perf_counter() - started
                 chains = posterior.chains
@@ -153,7 +160,7 @@ def one_seed(seed, fit_days, days, chain_seeds, fixed_draws=None, versions=VERSI
                         seconds,
                     )
                 )
-            out[version] = {
+            out[version] = done[placed is not None] = {
                 key: np.array([run[i] for run in runs])
                 for i, key in enumerate(("estimates", "errors", "draws", "seconds"))
             }
