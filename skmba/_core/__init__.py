@@ -10,6 +10,7 @@ file                      holds
 ``linalg.py``             Cholesky, QR and Kronecker-eigen factorisations,
                           their errors, memory checks and worker counts
 ``threads.py``            the BLAS-thread policy (``blas_threads``)
+``triangular.py``         a triangular solve that releases the GIL
 ``workspace.py``          scratch arrays reused by hot loops, per thread
 ``progress.py``           progress bars and messages (``verbose``)
 ``validation.py``         the parameter tables, argument checks, random

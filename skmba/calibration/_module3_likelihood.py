@@ -157,12 +157,18 @@ def regression_log_likelihoods(log_det_S, W, top, rss_top_perp, log_det_A, n_dat
     if np.any(diag.min(axis=1) <= RANK_TOLERANCE * diag.max(axis=1)):
         raise FactorizationError(RANK_DEFICIENT)
     rss = rss_top_perp + R[:, P, P] ** 2
+    return regression_terms(
+        log_det_S, np.sum(np.log(diag), axis=1), rss, log_det_A, n_data, P
+    )
+
+
+def regression_terms(log_det_S, log_det_R, rss, log_det_A, n_data, P):
+    """Eq. 4.30 from its parts: ``log |S_k|``, ``log |R_k|`` (the
+    regression's triangular factor, leading ``P`` columns), the residual sum
+    of squares (with the simulation block's), ``log |A|``, the number of
+    data and of coefficients."""
     return -0.5 * (
-        (n_data - P) * LOG_2PI
-        + log_det_A
-        + log_det_S
-        + 2.0 * np.sum(np.log(diag), axis=1)
-        + rss
+        (n_data - P) * LOG_2PI + log_det_A + log_det_S + 2.0 * log_det_R + rss
     )
 
 

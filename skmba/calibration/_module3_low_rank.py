@@ -22,20 +22,50 @@ checks it against the dense path.
 """
 
 import numpy as np
-from scipy import linalg
 
-from skmba.calibration._module3_likelihood import regression_log_likelihoods
+from skmba._core.triangular import lower_solve
+from skmba.calibration._module3_likelihood import regression_terms
 
 #: Eigenvalues of the projected model term below this share of the smallest
 #: noise variance are dropped; the columns are picked until the remaining
 #: diagonal is below it everywhere.
 LOW_RANK_TOL = 1e-6
-#: The low-rank path is taken when the rank stays within this share of the
-#: field block's order (beyond, the dense path costs less).
-MAX_RANK_SHARE = 0.25
+#: The low-rank path is taken while its flops per (theta, draw) stay within
+#: this many times the dense path's (:func:`max_low_rank`), for field blocks
+#: of order up to :data:`COST_ORDER`; above, the bound falls towards one as
+#: ``(COST_ORDER / m)^1.5`` (the dense path's factorisations of larger order
+#: run more flops per second). Measured crossovers: docs/internals.rst,
+#: section skmba.calibration._module3_mixture.
+COST_RATIO = 2.5
+COST_ORDER = 75
+#: Below this ratio of the smallest to the largest diagonal entry of the
+#: regression's factor, the Gram matrix's rounding (the square of the
+#: matrix's) could misjudge the rank: the dense path's QR decides.
+GRAM_RANK_TOLERANCE = 1e-4
 
 
-def model_term_factor(terms, noise_floor):
+def max_low_rank(m, c):
+    """The largest rank of the model term at which the low-rank path is
+    taken for a field block of order ``m`` and ``c`` columns (``P + 1``),
+    or -1 for none.
+
+    The low-rank path costs ``m^2 w + 2 m w^2`` flops per (theta, draw)
+    (``w = rho + c``: the triangular solve and the Gram matrix) against
+    ``(m + c)^3 / 3`` for the dense factorisation; it is taken while the
+    ratio stays within :data:`COST_RATIO`, lowered above :data:`COST_ORDER`.
+
+    Examples
+    --------
+    >>> max_low_rank(50, 5), max_low_rank(75, 9), max_low_rank(30, 3)
+    (21, 32, 13)
+    """
+    width = np.arange(m + 1) + c
+    low = m * m * width + 2.0 * m * width**2
+    bound = 1.0 + (COST_RATIO - 1.0) * min(1.0, (COST_ORDER / m) ** 1.5)
+    return int(np.sum(low <= bound * (m + c) ** 3 / 3.0)) - 1
+
+
+def model_term_factor(terms, noise_floor, max_rank):
     """A factor ``U`` (B, m, rho) of the model terms (B, m, m), or None.
 
     ``U U'`` is the Rayleigh-Ritz projection of each term on the span of
@@ -43,12 +73,13 @@ def model_term_factor(terms, noise_floor):
     remaining diagonal entry is below ``LOW_RANK_TOL * noise_floor``), its
     eigenvalues below that threshold dropped; ``rho`` is the largest rank
     of the batch (zero columns pad the others). None when more than
-    ``MAX_RANK_SHARE * m`` columns would be needed, or when the span leaves
-    out more than ``m`` thresholds of a term's trace.
+    ``max_rank`` columns (:func:`max_low_rank`) would be needed, or when
+    the span leaves out more than ``m`` thresholds of a term's trace.
     """
     n_terms, m, _ = terms.shape
     threshold = LOW_RANK_TOL * noise_floor
-    max_rank = int(MAX_RANK_SHARE * m)
+    if max_rank < 0:
+        return None
     rows = np.arange(n_terms)
     remaining = np.diagonal(terms, axis1=1, axis2=2).copy()
     columns = np.zeros((n_terms, m, max_rank))
@@ -113,33 +144,42 @@ def low_rank_log_likelihoods(factors, log_dets, U, Z, model, draws=None):
     ------
     numpy.linalg.LinAlgError
         When a bordered matrix is not positive definite (field rows of
-        lower rank than ``P + 1``): the dense path then says why.
-    FactorizationError
-        When the regression is rank deficient.
+        lower rank than ``P + 1``), or the regression's factor is within
+        :data:`GRAM_RANK_TOLERANCE` of rank deficient: the dense path then
+        decides, and says why.
     """
     B, m, rho = U.shape
     c = Z.shape[2]
-    rhs = np.concatenate([U, Z], axis=2).transpose(1, 0, 2).reshape(m, -1)
+    P, width = c - 1, rho + c
+    # In Fortran order: the solve copies it as it is instead of transposing
+    # it at every draw, and the solution's transpose holds each theta's
+    # columns as rows (a view, no copy).
+    rhs = np.concatenate([U, Z], axis=2).transpose(0, 2, 1).reshape(B * width, m).T
+    # The simulation block joins the bordered Gram matrix: the trailing
+    # factor of [[I + U' S^-1 U, .], [., Z' S^-1 Z + top' top]] is then the
+    # regression's (``R'`` of eq. 4.30's stacked QR), no QR per draw.
+    border = np.zeros((width, width))
+    border[:rho, :rho] = np.eye(rho)
+    border[rho:, rho:] = model.top.T @ model.top
     draws = range(len(factors)) if draws is None else draws
     out = np.empty((B, len(draws)))
-    identity = np.eye(rho)
     for j, k in enumerate(draws):
-        W = linalg.solve_triangular(factors[k], rhs, lower=True, check_finite=False)
-        W = W.reshape(m, B, rho + c).transpose(1, 0, 2)
-        gram = np.swapaxes(W, 1, 2) @ W
-        gram[:, :rho, :rho] += identity
-        F = np.linalg.cholesky(gram)
-        log_det_S = log_dets[k] + 2.0 * np.sum(
-            np.log(np.diagonal(F[:, :rho, :rho], axis1=1, axis2=2)), axis=1
-        )
-        # F's trailing block G has G G' = Z' S_k^-1 Z: G' whitens the rows.
-        whitened = np.swapaxes(F[:, rho:, rho:], 1, 2)
-        out[:, j] = regression_log_likelihoods(
-            log_det_S,
-            whitened,
-            model.top,
-            model.rss_top_perp,
+        W = lower_solve(factors[k], rhs)  # the GIL released: threads run
+        rows = W.T.reshape(B, width, m)
+        F = np.linalg.cholesky(rows @ np.swapaxes(rows, 1, 2) + border)
+        diag = np.diagonal(F, axis1=1, axis2=2)
+        regression = diag[:, rho : rho + P]
+        if np.any(
+            regression.min(axis=1) <= GRAM_RANK_TOLERANCE * regression.max(axis=1)
+        ):
+            # Normal equations cannot tell: the dense path's QR decides.
+            raise np.linalg.LinAlgError("near rank-deficient regression")
+        out[:, j] = regression_terms(
+            log_dets[k] + 2.0 * np.sum(np.log(diag[:, :rho]), axis=1),
+            np.sum(np.log(regression), axis=1),
+            model.rss_top_perp + diag[:, rho + P] ** 2,
             model.log_det_A,
             model.N * model.q + model.n_observed,
+            P,
         )
     return out

@@ -27,6 +27,7 @@ from skmba.calibration._module3_likelihood import CONDITIONAL_BYTES, stack_chunk
 from skmba.calibration._module3_low_rank import (
     fixed_factors,
     low_rank_log_likelihoods,
+    max_low_rank,
     model_term_factor,
 )
 
@@ -224,7 +225,9 @@ class ModelMixture:
                 self._fixed = False  # positive definite: dense, always
         if self._fixed is False:
             return None
-        U = model_term_factor(terms, self._noise_floor)
+        U = model_term_factor(
+            terms, self._noise_floor, max_low_rank(terms.shape[1], rows.shape[2])
+        )
         if U is None:
             return None
         factors, log_dets = self._fixed

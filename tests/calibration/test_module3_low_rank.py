@@ -9,7 +9,11 @@ import skmba.calibration._module3_mixture as mixture_module
 from skmba import MultiResponseGP
 from skmba.calibration._module1_emulator import Emulator
 from skmba.calibration._module3_likelihood import GlobalModel
-from skmba.calibration._module3_low_rank import LOW_RANK_TOL, model_term_factor
+from skmba.calibration._module3_low_rank import (
+    LOW_RANK_TOL,
+    max_low_rank,
+    model_term_factor,
+)
 from skmba.calibration._module3_mixture import LOW_RANK_MIN_THETAS, ModelMixture
 from skmba.kernels import Gauss
 from tests.conftest import discrepancy, mixture_draws
@@ -48,8 +52,8 @@ def _dense(mix, thetas, monkeypatch):
 
 
 def test_the_low_rank_values_are_the_dense_ones(smooth_mixture, monkeypatch):
-    """A batch of 40 thetas: the model term's rank is at most a quarter of
-    m, and every (theta, draw) value is the dense path's within m times
+    """A batch of 40 thetas: the model term's rank is within the cost
+    rule's, and every (theta, draw) value is the dense path's within m times
     LOW_RANK_TOL nats (8e-5): what is dropped, below the threshold on every
     remaining diagonal entry, holds at most m thresholds of trace, over
     Schur complements no smaller than the noise floor (measured: 2.9e-6).
@@ -58,8 +62,10 @@ def test_the_low_rank_values_are_the_dense_ones(smooth_mixture, monkeypatch):
     mix = smooth_mixture
     thetas = np.linspace(-0.95, 0.95, 40)[:, None]
     _, terms = mix.base.conditionals(thetas)
-    U = model_term_factor(terms, min(m.noise_floor for m in mix.models))
-    assert U is not None and U.shape[2] <= terms.shape[1] // 4
+    m = terms.shape[1]
+    max_rank = max_low_rank(m, mix.base.P + 1)
+    U = model_term_factor(terms, min(mdl.noise_floor for mdl in mix.models), max_rank)
+    assert U is not None and U.shape[2] <= max_rank
     used = []
     original = mixture_module.low_rank_log_likelihoods
 
@@ -80,12 +86,16 @@ def test_the_low_rank_values_are_the_dense_ones(smooth_mixture, monkeypatch):
 
 def test_a_model_term_of_high_rank_is_left_to_the_dense_path(problem, monkeypatch):
     """The rough Exp emulator of 14 runs (the shared problem, m = 12): no
-    factor of rank m / 4 holds its model term, and the batch's values are
-    the dense path's to the bit."""
+    factor within the cost rule's rank (6) holds its model term (it needs
+    all 12 columns), and the batch's values are the dense path's to the
+    bit."""
     mix = ModelMixture(problem[1], mixture_draws())
     thetas = np.linspace(-0.9, 0.9, LOW_RANK_MIN_THETAS)[:, None]
     _, terms = mix.base.conditionals(thetas)
-    assert model_term_factor(terms, 0.005) is None
+    max_rank = max_low_rank(terms.shape[1], mix.base.P + 1)
+    assert max_rank == 6
+    assert model_term_factor(terms, 0.005, max_rank) is None
+    assert model_term_factor(terms, 0.005, terms.shape[1]).shape[2] == 12
     np.testing.assert_array_equal(
         mix.batch_component_log_likelihoods(thetas), _dense(mix, thetas, monkeypatch)
     )
@@ -100,7 +110,7 @@ def test_the_factor_holds_the_term_to_its_threshold():
     floor = 1e-3
     tiny = 0.1 * LOW_RANK_TOL * floor / 40
     terms = A @ np.swapaxes(A, 1, 2) + tiny * small @ np.swapaxes(small, 1, 2) / 40
-    U = model_term_factor(terms, floor)
+    U = model_term_factor(terms, floor, 10)
     assert U.shape == (2, 40, 3)
     gap = np.linalg.eigvalsh(terms - U @ np.swapaxes(U, 1, 2))
     assert np.all(np.abs(gap) <= LOW_RANK_TOL * floor)
