@@ -33,7 +33,7 @@ LOW_RANK_TOL = 1e-6
 #: The low-rank path is taken while its flops per (theta, draw) stay within
 #: this many times the dense path's (:func:`max_low_rank`), for field blocks
 #: of order up to :data:`COST_ORDER`; above, the bound falls towards one as
-#: ``(COST_ORDER / m)^1.5`` (the dense path's factorisations of larger order
+#: ``(COST_ORDER / m)^2`` (the dense path's factorisations of larger order
 #: run more flops per second). Measured crossovers: docs/internals.rst,
 #: section skmba.calibration._module3_mixture.
 COST_RATIO = 2.5
@@ -61,7 +61,7 @@ def max_low_rank(m, c):
     """
     width = np.arange(m + 1) + c
     low = m * m * width + 2.0 * m * width**2
-    bound = 1.0 + (COST_RATIO - 1.0) * min(1.0, (COST_ORDER / m) ** 1.5)
+    bound = 1.0 + (COST_RATIO - 1.0) * min(1.0, (COST_ORDER / m) ** 2)
     return int(np.sum(low <= bound * (m + c) ** 3 / 3.0)) - 1
 
 
