@@ -24,7 +24,7 @@ checks it against the dense path.
 import numpy as np
 
 from skmba._core.triangular import lower_solve
-from skmba.calibration._module3_likelihood import regression_terms
+from skmba.calibration._module3_likelihood import RANK_TOLERANCE, regression_terms
 
 #: Eigenvalues of the projected model term below this share of the smallest
 #: noise variance are dropped; the columns are picked until the remaining
@@ -38,9 +38,11 @@ LOW_RANK_TOL = 1e-6
 #: section skmba.calibration._module3_mixture.
 COST_RATIO = 2.5
 COST_ORDER = 75
-#: Below this ratio of the smallest to the largest diagonal entry of the
-#: regression's factor, the Gram matrix's rounding (the square of the
-#: matrix's) could misjudge the rank: the dense path's QR decides.
+#: Where a regression column's diagonal entry in the factor falls below this
+#: share of the column's norm (the sine of its angle to the columns before
+#: it), the Gram matrix's rounding (the square of the columns') could
+#: misjudge the rank: the dense path's QR decides. It decides too where the
+#: entries span more than its own ``RANK_TOLERANCE``.
 GRAM_RANK_TOLERANCE = 1e-4
 
 
@@ -144,9 +146,9 @@ def low_rank_log_likelihoods(factors, log_dets, U, Z, model, draws=None):
     ------
     numpy.linalg.LinAlgError
         When a bordered matrix is not positive definite (field rows of
-        lower rank than ``P + 1``), or the regression's factor is within
-        :data:`GRAM_RANK_TOLERANCE` of rank deficient: the dense path then
-        decides, and says why.
+        lower rank than ``P + 1``), or a regression column is within
+        :data:`GRAM_RANK_TOLERANCE` of the span of the ones before it: the
+        dense path then decides, and says why.
     """
     B, m, rho = U.shape
     c = Z.shape[2]
@@ -166,11 +168,13 @@ def low_rank_log_likelihoods(factors, log_dets, U, Z, model, draws=None):
     for j, k in enumerate(draws):
         W = lower_solve(factors[k], rhs)  # the GIL released: threads run
         rows = W.T.reshape(B, width, m)
-        F = np.linalg.cholesky(rows @ np.swapaxes(rows, 1, 2) + border)
+        gram = rows @ np.swapaxes(rows, 1, 2) + border
+        F = np.linalg.cholesky(gram)
         diag = np.diagonal(F, axis1=1, axis2=2)
         regression = diag[:, rho : rho + P]
-        if np.any(
-            regression.min(axis=1) <= GRAM_RANK_TOLERANCE * regression.max(axis=1)
+        norms = np.sqrt(np.diagonal(gram, axis1=1, axis2=2)[:, rho : rho + P])
+        if np.any(regression <= GRAM_RANK_TOLERANCE * norms) or np.any(
+            regression.min(axis=1) <= RANK_TOLERANCE * regression.max(axis=1)
         ):
             # Normal equations cannot tell: the dense path's QR decides.
             raise np.linalg.LinAlgError("near rank-deficient regression")

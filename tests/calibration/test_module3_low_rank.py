@@ -2,15 +2,19 @@
 are the dense path's, where the emulator knows the simulator well at the
 field points, and the dense path takes over where it does not."""
 
+import types
+
 import numpy as np
 import pytest
 
 import skmba.calibration._module3_mixture as mixture_module
 from skmba import MultiResponseGP
 from skmba.calibration._module1_emulator import Emulator
-from skmba.calibration._module3_likelihood import GlobalModel
+from skmba.calibration._module3_likelihood import GlobalModel, schur_log_likelihoods
 from skmba.calibration._module3_low_rank import (
     LOW_RANK_TOL,
+    fixed_factors,
+    low_rank_log_likelihoods,
     max_low_rank,
     model_term_factor,
 )
@@ -70,8 +74,9 @@ def test_the_low_rank_values_are_the_dense_ones(smooth_mixture, monkeypatch):
     original = mixture_module.low_rank_log_likelihoods
 
     def spy(*args):
-        used.append(True)
-        return original(*args)
+        values = original(*args)
+        used.append(True)  # completed: the dense path did not take over
+        return values
 
     monkeypatch.setattr(mixture_module, "low_rank_log_likelihoods", spy)
     low = mix.batch_component_log_likelihoods(thetas)
@@ -114,3 +119,51 @@ def test_the_factor_holds_the_term_to_its_threshold():
     assert U.shape == (2, 40, 3)
     gap = np.linalg.eigvalsh(terms - U @ np.swapaxes(U, 1, 2))
     assert np.all(np.abs(gap) <= LOW_RANK_TOL * floor)
+
+
+def _regression_problem(scales, rng, m=30, rho=4, draws=3, thetas=5):
+    """Fixed parts, a model-term factor, field rows whose regression
+    columns are scaled by ``scales`` (P of them, then the data), and a
+    simulation block of two rows scaled alike."""
+    A = rng.normal(size=(draws, m, m)) / np.sqrt(m)
+    fixed = A @ np.swapaxes(A, 1, 2) + 0.5 * np.eye(m)
+    U = 0.3 * rng.normal(size=(thetas, m, rho))
+    c = len(scales)
+    Z = rng.normal(size=(thetas, m, c)) * scales
+    top = np.triu(rng.normal(size=(2, c)) + 3 * np.eye(2, c)) * scales
+    model = types.SimpleNamespace(
+        top=top, rss_top_perp=1.0, log_det_A=0.5, N=4, q=1, n_observed=m
+    )
+    return fixed, U, Z, model
+
+
+def _both_paths(fixed, U, Z, model):
+    K, m, _ = fixed.shape
+    B = len(U)
+    low = low_rank_log_likelihoods(*fixed_factors(fixed), U, Z, model)
+    S = (fixed[None] + (U @ np.swapaxes(U, 1, 2))[:, None]).reshape(B * K, m, m)
+    Zs = np.broadcast_to(Z[:, None], (B, K, *Z.shape[1:])).reshape(B * K, m, -1)
+    dense = schur_log_likelihoods(S, Zs, 0.5, model.top, 1.0, 0.5, 4 + m)
+    return low, dense.reshape(B, K)
+
+
+def test_regression_columns_of_other_scales_stay_low_rank():
+    """Columns 1e6 apart in scale (the regression's factor's diagonal too)
+    are no rank deficiency: the low-rank path gives the dense values. (A
+    check on the ratio of the diagonal entries sent 4.7.3's batches to the
+    dense path, whose fit then took 12.3 s instead of 7.3.)"""
+    rng = np.random.default_rng(0)
+    problem = _regression_problem(np.array([1.0, 1e-6, 1.0, 1.0]), rng)
+    low, dense = _both_paths(*problem)
+    np.testing.assert_allclose(low, dense, rtol=1e-10, atol=1e-8)
+
+
+def test_a_nearly_dependent_regression_column_is_left_to_the_dense_path():
+    """A column within 1e-6 of another's span (sine) is beyond what the
+    Gram matrix resolves: the low-rank path refuses it."""
+    rng = np.random.default_rng(1)
+    fixed, U, Z, model = _regression_problem(np.ones(4), rng)
+    Z[:, :, 1] = Z[:, :, 0] + 1e-6 * Z[:, :, 1]
+    model.top[:, 1] = model.top[:, 0] + 1e-6 * model.top[:, 1]
+    with pytest.raises(np.linalg.LinAlgError, match="rank-deficient"):
+        low_rank_log_likelihoods(*fixed_factors(fixed), U, Z, model)
