@@ -113,7 +113,7 @@ class NodeProposal:
         theta = lp.from_u(U)
         with np.errstate(divide="ignore", invalid="ignore"):
             out = np.ravel(lp.prior.logpdf(theta)) + np.sum(np.log(lp.u_scale))
-            out = out + np.sum(np.log(theta[:, lp.log_dims]), axis=1)
+            out = out + lp.log_jacobian(theta)
         return np.where(np.isnan(out), -np.inf, out)
 
     def draw(self, n, seed):

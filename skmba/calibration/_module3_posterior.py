@@ -35,6 +35,29 @@ from skmba.mcmc._run import run_chains
 from skmba.mcmc._stopping import EssTarget
 
 SAMPLERS = ("auto", "quadrature", "mcmc")
+#: The scale of the soft ends of a finite support, as a share of its width
+#: (:func:`_soft_ends`): farther than a few times it from both ends, the
+#: sampling coordinate is the parameter itself (or its log).
+EDGE_SHARE = 0.02
+
+
+def _soft_ends(x, low, width):
+    """``v`` of ``x`` in ``(a, b) = (low, low + width)``, and ``log dx/dv``.
+
+    ``y = b - s g((b - x) / s)``, ``v = a + s g((y - a) / s)`` with ``g(t)
+    = log(exp(t) - 1)``, the inverse of the softplus, and ``s`` =
+    :data:`EDGE_SHARE` times the width: ``v = x`` to within ``s exp(-d /
+    s)`` at a distance ``d`` from the ends, which go to minus and plus
+    infinity. ``dx/dv = (1 - exp(-(y - a) / s)) (1 - exp(-(b - x) / s))``.
+    """
+    scale = EDGE_SHARE * width
+    high = low + width
+    t_high = (high - x) / scale
+    log_high = np.log(-np.expm1(-t_high))  # log(1 - exp(-t))
+    y = high - scale * (t_high + log_high)
+    t_low = (y - low) / scale
+    log_low = np.log(-np.expm1(-t_low))
+    return low + scale * (t_low + log_low), log_low + log_high
 
 
 class LogPosterior:
@@ -46,11 +69,20 @@ class LogPosterior:
     It also defines the MCMC coordinates ``u``: parameters whose prior is
     (practically) positive (stiffnesses, moduli, areas) are sampled as
     ``log theta``, where posterior ridges such as ``E I = const`` are
-    straight and random-walk proposals follow them far better; then ``u``
-    is standardised with the simulated parameters. A parameter gets log
-    coordinates where the prior puts at most 1e-6 of its mass on
+    straight and random-walk proposals follow them far better. A parameter
+    gets log coordinates where the prior puts at most 1e-6 of its mass on
     non-positive values (the support, when finite; else the lower end of
-    the central 1 - 2e-6 interval): truncating that mass is negligible.
+    the central 1 - 2e-6 interval): truncating that mass is negligible. A
+    parameter whose support is a finite interval ``[a, b]`` (a uniform or
+    log-uniform prior; of ``log theta`` where it is positive) has soft
+    ends (:func:`_soft_ends`): the coordinate is the parameter (or its log)
+    farther than a few :data:`EDGE_SHARE` widths from both ends, which it
+    pushes to infinity, so that a posterior reaching an end (a parameter
+    the data leave near its prior) falls off smoothly there instead of at a
+    wall the chains' proposals do not see. Then ``u`` is standardised with
+    the simulated parameters (those inside the supports). Why soft ends and
+    not a logit: docs/internals.rst, section
+    skmba.calibration._module3_posterior.
 
     Parameters
     ----------
@@ -64,10 +96,23 @@ class LogPosterior:
 
     def __init__(self, prior, model, scaler, theta_sim):
         self.prior, self.model, self.scaler = prior, model, scaler
+        support = prior.support()
+        self.bounded_dims = logit = np.all(np.isfinite(support), axis=1)
         lower = prior.bounds(1.0 - 2e-6)[:, 0]
-        self.log_dims = np.asarray(lower >= 0) & np.all(theta_sim > 0, axis=0)
-        u = theta_sim.copy()
-        u[:, self.log_dims] = np.log(u[:, self.log_dims])
+        self.log_dims = np.where(
+            logit,
+            support[:, 0] > 0,
+            (lower >= 0) & np.all(theta_sim > 0, axis=0),
+        )
+        # The support's ends in the coordinates whose ends are pushed away.
+        self.support = support
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ends = np.where(self.log_dims[:, None], np.log(support), support)
+        self.support_low = np.where(logit, ends[:, 0], 0.0)
+        self.support_width = np.where(logit, np.ptp(ends, axis=1), 1.0)
+        # Simulations on the support's ends (or outside it) have no u.
+        u = self._unscaled(theta_sim)
+        u = u[np.all(np.isfinite(u), axis=1)]
         self.u_mean = u.mean(axis=0)
         scale = u.std(axis=0)
         self.u_scale = np.where(scale > 0, scale, 1.0)
@@ -113,25 +158,66 @@ class LogPosterior:
         other.model = model
         return other
 
-    def to_u(self, theta):
-        """Sampling coordinates of ``theta`` (..., r)."""
+    def _unscaled(self, theta):
+        """The sampling coordinates before their standardisation (..., r):
+        ``log theta`` in the log coordinates, then, for a finite support
+        ``[a, b]`` (of ``log theta`` there), ``x`` with its ends pushed to
+        infinity (:func:`_soft_ends`)."""
         u = np.array(theta, dtype=float)
+        ends = self.bounded_dims
         with np.errstate(divide="ignore", invalid="ignore"):
             u[..., self.log_dims] = np.log(u[..., self.log_dims])
-        return (u - self.u_mean) / self.u_scale
+            v, _ = _soft_ends(
+                u[..., ends], self.support_low[ends], self.support_width[ends]
+            )
+        u[..., ends] = v
+        return u
+
+    def to_u(self, theta):
+        """Sampling coordinates of ``theta`` (..., r); not finite on or
+        outside the ends of a finite support."""
+        return (self._unscaled(theta) - self.u_mean) / self.u_scale
 
     def from_u(self, u):
         """``theta`` of sampling coordinates ``u`` (..., r)."""
         theta = np.asarray(u, dtype=float) * self.u_scale + self.u_mean
+        ends = self.bounded_dims
+        low, width = self.support_low[ends], self.support_width[ends]
+        scale = EDGE_SHARE * width
+        # x = b - s softplus((b - y) / s), y = a + s softplus((v - a) / s)
+        y = low + scale * np.logaddexp(0.0, (theta[..., ends] - low) / scale)
+        theta[..., ends] = (
+            low + width - scale * np.logaddexp(0.0, (low + width - y) / scale)
+        )
         theta[..., self.log_dims] = np.exp(theta[..., self.log_dims])
+        # exp(log b) may round past b
+        theta[..., ends] = np.clip(
+            theta[..., ends], self.support[ends, 0], self.support[ends, 1]
+        )
         return theta
+
+    def log_jacobian(self, theta):
+        """``log |d theta / d v|`` at ``theta`` (..., r), ``v`` being the
+        coordinates of :meth:`_unscaled`: ``log theta`` summed over the log
+        coordinates, plus the soft ends' (:func:`_soft_ends`) over the
+        finite supports; ``-inf`` on a support's end."""
+        theta = np.asarray(theta, dtype=float)
+        ends = self.bounded_dims
+        with np.errstate(divide="ignore", invalid="ignore"):
+            logged = np.log(theta[..., self.log_dims])
+            x = theta[..., ends].copy()
+            x[..., self.log_dims[ends]] = np.log(x[..., self.log_dims[ends]])
+            _, log_slope = _soft_ends(
+                x, self.support_low[ends], self.support_width[ends]
+            )
+        return np.sum(logged, axis=-1) + np.sum(log_slope, axis=-1)
 
     def log_density_u(self, u, model=None):
         """Log posterior density of the sampling coordinates (with Jacobian)."""
         theta = self.from_u(u)
         if not np.all(np.isfinite(theta)):
             return -np.inf
-        return self(theta, model) + np.sum(np.log(theta[self.log_dims]))
+        return self(theta, model) + self.log_jacobian(theta)
 
     def log_density_u_with_components(self, u):
         """:meth:`log_density_u` and, as :meth:`log_density_u_components`,
@@ -141,7 +227,7 @@ class LogPosterior:
         if not np.all(np.isfinite(theta)):
             return -np.inf, np.full(len(self.model.models), -np.inf)
         value, joint = self._at(theta, components=True)
-        jacobian = np.sum(np.log(theta[self.log_dims]))
+        jacobian = self.log_jacobian(theta)
         return value + jacobian, joint + jacobian
 
     def log_density_u_batch(self, U):
@@ -222,7 +308,7 @@ class LogPosterior:
                     continue
         offset = log_prior[inside]
         if jacobian:
-            offset = offset + np.sum(np.log(theta[inside][:, self.log_dims]), axis=1)
+            offset = offset + self.log_jacobian(theta[inside])
         out[inside] = values + (offset if width is None else offset[:, None])
         return out
 
@@ -549,9 +635,7 @@ def _mcmc_result(log_posterior, result, kept, check, say):
         draw_weights[:, slice(None) if kept is None else kept] = shares
     log_density = None
     if result.log_density is not None:
-        log_density = result.log_density - np.sum(
-            np.log(chains[..., log_posterior.log_dims]), axis=-1
-        )
+        log_density = result.log_density - log_posterior.log_jacobian(chains)
     for c, chain in enumerate(chains):
         say(
             f"module 3: chain {c} done: acceptance {result.acceptance_rate[c]:.2f}"

@@ -173,6 +173,21 @@ class Prior:
         """
         return self._bounds(check_coverage(coverage))
 
+    def support(self):
+        """The ends of each parameter's support.
+
+        Returns
+        -------
+        support : ndarray of shape (r, 2)
+            Lower and upper end of each parameter's support, ``-inf`` and
+            ``inf`` where it is unbounded (or, for a
+            :class:`~skmba.priors.GenericPrior`, not known).
+        """
+        return self._support()
+
+    def _support(self):
+        return np.tile([-np.inf, np.inf], (self.dim, 1))
+
     def _is_gaussian_1d(self):
         """Whether this is a one-parameter normal prior (see subclasses)."""
         return False

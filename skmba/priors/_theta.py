@@ -155,6 +155,9 @@ class IndependentPrior(Prior):
                 out[j] = dist.ppf([tail, 1.0 - tail])
         return out
 
+    def _support(self):
+        return np.array([[float(v) for v in d.support()] for d in self.distributions])
+
     def _transform(self, u):
         columns = [d.ppf(u[:, j]) for j, d in enumerate(self.distributions)]
         return np.column_stack(columns).astype(float)

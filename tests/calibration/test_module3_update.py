@@ -178,14 +178,14 @@ def test_the_next_day_reweights_the_same_draws_and_the_export_says_so(
 
 
 def test_a_last_run_that_did_not_converge_is_not_reweighted():
-    # A week of readings: the short chains do not mix (R-hat about 2, ESS
-    # about 5, warned); its draws must not stand for the next posterior.
-    cal = ModularBayesCalibrator(prior=DATA.prior, **FAST)
+    # A week of readings with chains of 40 draws: R-hat above 1.01 and an
+    # ESS below 400 (warned); its draws must not stand for the next posterior.
+    cal = ModularBayesCalibrator(prior=DATA.prior, **{**FAST, "n_samples": 40})
     week = (MONTH == 1) & (DAY <= 7)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         cal.partial_fit(X[week], Y[week], **SIMS)
-    assert np.max(cal.rhat_) > 1.01
+    assert np.max(cal.rhat_) > 1.01 and np.min(cal.ess_) < 400
     day = (MONTH == 1) & (DAY == 8)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

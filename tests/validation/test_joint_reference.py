@@ -67,9 +67,14 @@ def test_joint_density_is_the_sum_of_its_parts(a1_fit):
     theta = cal.theta_mean_ * 1.02
     v = space.coordinates_of(Component(cal.global_model_.models[3])) + 0.1
     x = np.r_[log_post.to_u(theta), v]
-    # log p(theta) in u = (log E - m) / s: the prior of E times E (the
-    # constant s dropped, as by the calibrator's own log density)
-    log_prior_u = float(cal.prior_.logpdf(theta[None, :])[0]) + np.log(theta[0])
+    # log p(theta) in u: the prior of E times d E / d u, by central
+    # differences (the constant log u_scale dropped, as by the calibrator's
+    # own log density)
+    u, h = log_post.to_u(theta), 1e-6
+    slope = (log_post.from_u(u + h) - log_post.from_u(u - h))[0] / (2 * h)
+    log_prior_u = float(cal.prior_.logpdf(theta[None, :])[0]) + np.log(
+        slope / log_post.u_scale[0]
+    )
     theta_std = (theta - cal.theta_offset_) / cal.theta_scale_
     model = cal.global_model_.base.with_discrepancy(space.component(v))
     expected = log_prior_u + space.log_prior(v) + model.log_likelihood(theta_std)
