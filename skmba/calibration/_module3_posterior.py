@@ -74,8 +74,9 @@ class LogPosterior:
     non-positive values (the support, when finite; else the lower end of
     the central 1 - 2e-6 interval): truncating that mass is negligible. A
     parameter whose support is a finite interval ``[a, b]`` (a uniform or
-    log-uniform prior; of ``log theta`` where it is positive) has soft
-    ends (:func:`_soft_ends`): the coordinate is the parameter (or its log)
+    log-uniform prior; of ``log theta`` in log coordinates, but for ``a =
+    0``, which they already send to minus infinity) has soft ends
+    (:func:`_soft_ends`): the coordinate is the parameter (or its log)
     farther than a few :data:`EDGE_SHARE` widths from both ends, which it
     pushes to infinity, so that a posterior reaching an end (a parameter
     the data leave near its prior) falls off smoothly there instead of at a
@@ -96,20 +97,19 @@ class LogPosterior:
 
     def __init__(self, prior, model, scaler, theta_sim):
         self.prior, self.model, self.scaler = prior, model, scaler
-        support = prior.support()
-        self.bounded_dims = logit = np.all(np.isfinite(support), axis=1)
+        self.support = support = prior.support()
         lower = prior.bounds(1.0 - 2e-6)[:, 0]
-        self.log_dims = np.where(
-            logit,
-            support[:, 0] > 0,
-            (lower >= 0) & np.all(theta_sim > 0, axis=0),
+        self.log_dims = (lower >= 0) & np.all(theta_sim > 0, axis=0)
+        # Soft ends on a finite support, but for [0, b] in log coordinates,
+        # whose lower end is already at minus infinity (b stays a wall).
+        self.bounded_dims = bounded = np.all(np.isfinite(support), axis=1) & ~(
+            self.log_dims & (support[:, 0] <= 0)
         )
         # The support's ends in the coordinates whose ends are pushed away.
-        self.support = support
         with np.errstate(divide="ignore", invalid="ignore"):
             ends = np.where(self.log_dims[:, None], np.log(support), support)
-        self.support_low = np.where(logit, ends[:, 0], 0.0)
-        self.support_width = np.where(logit, np.ptp(ends, axis=1), 1.0)
+        self.support_low = np.where(bounded, ends[:, 0], 0.0)
+        self.support_width = np.where(bounded, np.ptp(ends, axis=1), 1.0)
         # Simulations on the support's ends (or outside it) have no u.
         u = self._unscaled(theta_sim)
         u = u[np.all(np.isfinite(u), axis=1)]

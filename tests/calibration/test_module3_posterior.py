@@ -254,6 +254,10 @@ def test_finite_supports_have_soft_ends():
     lp = LogPosterior(prior, None, SimpleNamespace(), theta_sim)
     assert list(lp.bounded_dims) == [True, True, False, False]
     assert list(lp.log_dims) == [False, True, True, False]
+    # [0, b]: plain log coordinates, whose lower end is minus infinity
+    zero = check_prior([stats.uniform(0.0, 2.0)])
+    at_zero = LogPosterior(zero, None, SimpleNamespace(), zero.rvs(20, random_state=0))
+    assert list(at_zero.log_dims) == [True] and list(at_zero.bounded_dims) == [False]
     theta = prior.rvs(200, random_state=1)
     U = lp.to_u(theta)
     np.testing.assert_allclose(lp.from_u(U), theta, rtol=1e-12)
