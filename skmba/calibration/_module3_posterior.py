@@ -110,11 +110,15 @@ class LogPosterior:
             ends = np.where(self.log_dims[:, None], np.log(support), support)
         self.support_low = np.where(bounded, ends[:, 0], 0.0)
         self.support_width = np.where(bounded, np.ptp(ends, axis=1), 1.0)
-        # Simulations on the support's ends (or outside it) have no u.
+        # Simulations on a support's end (or outside it) have no u there:
+        # each coordinate is standardised with the simulations that have
+        # one (none: left as it is).
         u = self._unscaled(theta_sim)
-        u = u[np.all(np.isfinite(u), axis=1)]
-        self.u_mean = u.mean(axis=0)
-        scale = u.std(axis=0)
+        finite = np.isfinite(u)
+        count = np.maximum(finite.sum(axis=0), 1)
+        self.u_mean = np.where(finite, u, 0.0).sum(axis=0) / count
+        spread = np.square(np.where(finite, u - self.u_mean, 0.0))
+        scale = np.sqrt(spread.sum(axis=0) / count)
         self.u_scale = np.where(scale > 0, scale, 1.0)
 
     def with_own_cache(self):

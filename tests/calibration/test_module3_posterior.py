@@ -254,6 +254,14 @@ def test_finite_supports_have_soft_ends():
     lp = LogPosterior(prior, None, SimpleNamespace(), theta_sim)
     assert list(lp.bounded_dims) == [True, True, False, False]
     assert list(lp.log_dims) == [False, True, True, False]
+    # simulations on a support's end (a factorial design's corners) leave
+    # out that coordinate only; with none inside, it is left unscaled
+    corners = theta_sim.copy()
+    corners[:, 0] = np.where(np.arange(50) % 2, -1.0, 1.0)
+    on_ends = LogPosterior(prior, None, SimpleNamespace(), corners)
+    assert (on_ends.u_mean[0], on_ends.u_scale[0]) == (0.0, 1.0)
+    np.testing.assert_allclose(on_ends.u_mean[1:], lp.u_mean[1:], rtol=1e-12)
+    np.testing.assert_allclose(on_ends.u_scale[1:], lp.u_scale[1:], rtol=1e-12)
     # [0, b]: plain log coordinates, whose lower end is minus infinity
     zero = check_prior([stats.uniform(0.0, 2.0)])
     at_zero = LogPosterior(zero, None, SimpleNamespace(), zero.rvs(20, random_state=0))
