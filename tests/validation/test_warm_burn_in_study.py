@@ -5,12 +5,14 @@ chains that each fitted their own Student-t to the latest half of a
 reference's); the calibrator's answer now matches the reference (since
 the shared mixture, after running its chains again past the full
 burn-in). On sbc_a2 seed 108 the first pass located the posterior poorly
-(R-hat 1.40, bulk ESS 5) and 250 steps leave the chains unmixed (R-hat
-1.83): the calibrator runs them again after the full burn-in. An update's
-chains start further from their posterior: on b2 seed 21, updated with
-three quarters of its field data, 250 steps give narrower sds than the
-full burn-in, with R-hat above 1.01 and twice the steps, so updates keep
-the full burn-in."""
+in log coordinates (R-hat 1.40, bulk ESS 5; a parameter pressed against
+its prior's bound) and 250 steps left the chains unmixed (R-hat 1.83), so
+the calibrator ran them again after the full burn-in; with the soft ends
+of a finite support the 250 steps mix and agree with the full burn-in's
+run. An update's chains start further from their posterior: on b2 seed
+21, updated with three quarters of its field data, 250 steps give
+narrower sds than the full burn-in with twice the steps (and, before the
+soft ends, an R-hat above 1.01), so updates keep the full burn-in."""
 
 import numpy as np
 import pytest
@@ -53,14 +55,24 @@ def test_the_default_second_pass_samples_the_posterior_of_a_stuck_first_pass():
 
 
 @pytest.mark.slow
-def test_chains_unmixed_after_the_short_burn_in_run_again_after_the_full_one():
+def test_a_first_pass_stuck_at_a_bound_no_longer_needs_the_full_burn_in():
     default, long = (one_fit("sbc_a2", 108, v, 0) for v in (SHORT, LONG))
     np.testing.assert_array_equal(default["module2"], long["module2"])
-    # The default fell back: two runs of the second pass, the draws of the
-    # one after LONG steps, which mixes.
-    assert default["fell_back"] and default["runs"] == 2
-    np.testing.assert_array_equal(default["estimates"], long["estimates"])
-    assert default["rhat"] <= 1.01
+    # In log coordinates the default fell back here (R-hat 1.83 after 250
+    # steps); with soft ends one run mixes (measured R-hat 1.0007) and its
+    # mean, sd and 95 % ends lie within 1.75 combined Monte Carlo errors of
+    # the full burn-in's (sds 1.04 of its). The fallback itself is checked
+    # in tests/calibration/test_estimator_calibration.py.
+    assert not default["fell_back"] and default["runs"] == 1
+    assert default["rhat"] <= 1.01 and long["rhat"] <= 1.01
+    (values, errors), (ref_values, ref_errors) = (
+        default["estimates"],
+        long["estimates"],
+    )
+    z = (values - ref_values) / np.hypot(errors, ref_errors)
+    assert np.all(np.abs(z) < 4)
+    ratio = values[1] / ref_values[1]
+    assert np.all((0.93 < ratio) & (ratio < 1.07))
 
 
 @pytest.mark.slow
@@ -71,11 +83,13 @@ def test_an_update_after_the_short_burn_in_mixes_worse_at_a_higher_cost():
     np.testing.assert_array_equal(short["module2"], long["module2"])
     assert short["runs"] == long["runs"] == 1
     # After the short burn-in the chains run to n_samples without meeting
-    # the ESS target (21,000 steps against 10,000), warn of R-hat (measured
-    # 1.015 against 1.003) and give sds 0.96 and 0.88 of those after the
-    # full burn-in (the smaller held to 0.80-0.92); with one shared
-    # Student-t they gave 0.81 and 0.83 with R-hat 1.004.
-    assert 1.01 < short["rhat"] < 1.05 and long["rhat"] <= 1.01
+    # the ESS target (21,000 steps against 10,000) and give sds 0.90 and
+    # 0.80 of those after the full burn-in, silently: with soft ends their
+    # R-hat is 1.003 (1.015 in log coordinates, with sds 0.96 and 0.88;
+    # with one shared Student-t 0.81 and 0.83 at R-hat 1.004). The smaller
+    # ratio has been 0.80-0.88 over these versions; another processor's
+    # chain path may take it a little lower.
+    assert short["rhat"] < 1.05 and long["rhat"] <= 1.01
     assert short["steps"] > long["steps"]
     ratio = short["estimates"][0][1] / long["estimates"][0][1]
-    assert 0.80 < ratio.min() < 0.92 and ratio.max() < 1.0
+    assert 0.72 < ratio.min() < 0.92 and ratio.max() < 1.0
