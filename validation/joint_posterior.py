@@ -69,7 +69,7 @@ class JointTarget:
         self.log_posterior = log_posterior.with_own_cache()
         self.base = self.log_posterior.model.base
         self.space = space
-        self.r = len(log_posterior.u_mean)
+        self.r = len(log_posterior.coordinates.u_mean)
 
     @property
     def size(self):

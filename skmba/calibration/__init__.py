@@ -51,6 +51,8 @@ file                               holds
                                    (the determinant lemma), for batches
 ``_module3_posterior.py``          the posterior of theta (``sampler``):
                                    the log posterior, the chains
+``_module3_coordinates.py``        the chains' coordinates of theta: log,
+                                   soft ends of a finite support
 ``_module3_quadrature.py``         one parameter by quadrature
 ``_module3_mixture_error.py``      the error of a mixture over fixed
                                    module-2 draws, and its warning

@@ -112,7 +112,9 @@ class NodeProposal:
         lp = self.log_post
         theta = lp.from_u(U)
         with np.errstate(divide="ignore", invalid="ignore"):
-            out = np.ravel(lp.prior.logpdf(theta)) + np.sum(np.log(lp.u_scale))
+            out = np.ravel(lp.prior.logpdf(theta)) + np.sum(
+                np.log(lp.coordinates.u_scale)
+            )
             out = out + lp.log_jacobian(theta)
         return np.where(np.isnan(out), -np.inf, out)
 

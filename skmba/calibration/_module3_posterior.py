@@ -28,6 +28,7 @@ from skmba._core.linalg import (
 )
 from skmba._core.progress import as_progress
 from skmba._core.validation import seed_sequence
+from skmba.calibration._module3_coordinates import SamplingCoordinates
 from skmba.calibration._module3_mixture import IDLE_CHECK_THETAS, draw_weights_of
 from skmba.mcmc._diagnostics import MAX_RHAT, check_diagnostics, split_rhat
 from skmba.mcmc._posterior import PosteriorResult, laplace
@@ -35,29 +36,6 @@ from skmba.mcmc._run import run_chains
 from skmba.mcmc._stopping import EssTarget
 
 SAMPLERS = ("auto", "quadrature", "mcmc")
-#: The scale of the soft ends of a finite support, as a share of its width
-#: (:func:`_soft_ends`): farther than a few times it from both ends, the
-#: sampling coordinate is the parameter itself (or its log).
-EDGE_SHARE = 0.02
-
-
-def _soft_ends(x, low, width):
-    """``v`` of ``x`` in ``(a, b) = (low, low + width)``, and ``log dx/dv``.
-
-    ``y = b - s g((b - x) / s)``, ``v = a + s g((y - a) / s)`` with ``g(t)
-    = log(exp(t) - 1)``, the inverse of the softplus, and ``s`` =
-    :data:`EDGE_SHARE` times the width: ``v = x`` to within ``s exp(-d /
-    s)`` at a distance ``d`` from the ends, which go to minus and plus
-    infinity. ``dx/dv = (1 - exp(-(y - a) / s)) (1 - exp(-(b - x) / s))``.
-    """
-    scale = EDGE_SHARE * width
-    high = low + width
-    t_high = (high - x) / scale
-    log_high = np.log(-np.expm1(-t_high))  # log(1 - exp(-t))
-    y = high - scale * (t_high + log_high)
-    t_low = (y - low) / scale
-    log_low = np.log(-np.expm1(-t_low))
-    return low + scale * (t_low + log_low), log_low + log_high
 
 
 class LogPosterior:
@@ -66,24 +44,10 @@ class LogPosterior:
     ``log p(theta) + log p(Y | theta, D, phi)``; ``-inf`` outside the
     prior's support or where the global covariance cannot be factored.
 
-    It also defines the MCMC coordinates ``u``: parameters whose prior is
-    (practically) positive (stiffnesses, moduli, areas) are sampled as
-    ``log theta``, where posterior ridges such as ``E I = const`` are
-    straight and random-walk proposals follow them far better. A parameter
-    gets log coordinates where the prior puts at most 1e-6 of its mass on
-    non-positive values (the support, when finite; else the lower end of
-    the central 1 - 2e-6 interval): truncating that mass is negligible. A
-    parameter whose support is a finite interval ``[a, b]`` (a uniform or
-    log-uniform prior; of ``log theta`` in log coordinates, but for ``a =
-    0``, which they already send to minus infinity) has soft ends
-    (:func:`_soft_ends`): the coordinate is the parameter (or its log)
-    farther than a few :data:`EDGE_SHARE` widths from both ends, which it
-    pushes to infinity, so that a posterior reaching an end (a parameter
-    the data leave near its prior) falls off smoothly there instead of at a
-    wall the chains' proposals do not see. Then ``u`` is standardised with
-    the simulated parameters (those inside the supports). Why soft ends and
-    not a logit: docs/internals.rst, section
-    skmba.calibration._module3_posterior.
+    It also holds the MCMC coordinates ``u`` of theta
+    (:class:`~skmba.calibration._module3_coordinates.SamplingCoordinates`,
+    standardised with the simulated parameters), in which the chains
+    evaluate it with the Jacobian.
 
     Parameters
     ----------
@@ -97,29 +61,7 @@ class LogPosterior:
 
     def __init__(self, prior, model, scaler, theta_sim):
         self.prior, self.model, self.scaler = prior, model, scaler
-        self.support = support = prior.support()
-        lower = prior.bounds(1.0 - 2e-6)[:, 0]
-        self.log_dims = (lower >= 0) & np.all(theta_sim > 0, axis=0)
-        # Soft ends on a finite support, but for [0, b] in log coordinates,
-        # whose lower end is already at minus infinity (b stays a wall).
-        self.bounded_dims = bounded = np.all(np.isfinite(support), axis=1) & ~(
-            self.log_dims & (support[:, 0] <= 0)
-        )
-        # The support's ends in the coordinates whose ends are pushed away.
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ends = np.where(self.log_dims[:, None], np.log(support), support)
-        self.support_low = np.where(bounded, ends[:, 0], 0.0)
-        self.support_width = np.where(bounded, np.ptp(ends, axis=1), 1.0)
-        # Simulations on a support's end (or outside it) have no u there:
-        # each coordinate is standardised with the simulations that have
-        # one (none: left as it is).
-        u = self._unscaled(theta_sim)
-        finite = np.isfinite(u)
-        count = np.maximum(finite.sum(axis=0), 1)
-        self.u_mean = np.where(finite, u, 0.0).sum(axis=0) / count
-        spread = np.square(np.where(finite, u - self.u_mean, 0.0))
-        scale = np.sqrt(spread.sum(axis=0) / count)
-        self.u_scale = np.where(scale > 0, scale, 1.0)
+        self.coordinates = SamplingCoordinates.of(prior, theta_sim)
 
     def with_own_cache(self):
         """A copy whose global model has its own factorisation cache.
@@ -162,59 +104,17 @@ class LogPosterior:
         other.model = model
         return other
 
-    def _unscaled(self, theta):
-        """The sampling coordinates before their standardisation (..., r):
-        ``log theta`` in the log coordinates, then, for a finite support
-        ``[a, b]`` (of ``log theta`` there), ``x`` with its ends pushed to
-        infinity (:func:`_soft_ends`)."""
-        u = np.array(theta, dtype=float)
-        ends = self.bounded_dims
-        with np.errstate(divide="ignore", invalid="ignore"):
-            u[..., self.log_dims] = np.log(u[..., self.log_dims])
-            v, _ = _soft_ends(
-                u[..., ends], self.support_low[ends], self.support_width[ends]
-            )
-        u[..., ends] = v
-        return u
-
     def to_u(self, theta):
-        """Sampling coordinates of ``theta`` (..., r); not finite on or
-        outside the ends of a finite support."""
-        return (self._unscaled(theta) - self.u_mean) / self.u_scale
+        """Sampling coordinates of ``theta`` (..., r)."""
+        return self.coordinates.to_u(theta)
 
     def from_u(self, u):
         """``theta`` of sampling coordinates ``u`` (..., r)."""
-        theta = np.asarray(u, dtype=float) * self.u_scale + self.u_mean
-        ends = self.bounded_dims
-        low, width = self.support_low[ends], self.support_width[ends]
-        scale = EDGE_SHARE * width
-        # x = b - s softplus((b - y) / s), y = a + s softplus((v - a) / s)
-        y = low + scale * np.logaddexp(0.0, (theta[..., ends] - low) / scale)
-        theta[..., ends] = (
-            low + width - scale * np.logaddexp(0.0, (low + width - y) / scale)
-        )
-        theta[..., self.log_dims] = np.exp(theta[..., self.log_dims])
-        # exp(log b) may round past b
-        theta[..., ends] = np.clip(
-            theta[..., ends], self.support[ends, 0], self.support[ends, 1]
-        )
-        return theta
+        return self.coordinates.from_u(u)
 
     def log_jacobian(self, theta):
-        """``log |d theta / d v|`` at ``theta`` (..., r), ``v`` being the
-        coordinates of :meth:`_unscaled`: ``log theta`` summed over the log
-        coordinates, plus the soft ends' (:func:`_soft_ends`) over the
-        finite supports; ``-inf`` on a support's end."""
-        theta = np.asarray(theta, dtype=float)
-        ends = self.bounded_dims
-        with np.errstate(divide="ignore", invalid="ignore"):
-            logged = np.log(theta[..., self.log_dims])
-            x = theta[..., ends].copy()
-            x[..., self.log_dims[ends]] = np.log(x[..., self.log_dims[ends]])
-            _, log_slope = _soft_ends(
-                x, self.support_low[ends], self.support_width[ends]
-            )
-        return np.sum(logged, axis=-1) + np.sum(log_slope, axis=-1)
+        """``log |d theta / d u|`` at ``theta`` up to a constant."""
+        return self.coordinates.log_jacobian(theta)
 
     def log_density_u(self, u, model=None):
         """Log posterior density of the sampling coordinates (with Jacobian)."""

@@ -34,8 +34,8 @@ def test_node_proposal_draws_its_own_density():
     prior = check_prior([stats.uniform(1.0, 2.0), stats.norm(0.0, 1.0)])
     theta_sim = np.column_stack([np.linspace(1.0, 3.0, 9), np.linspace(-2, 2, 9)])
     log_post = LogPosterior(prior, None, SimpleNamespace(), theta_sim)
-    assert list(log_post.log_dims) == [True, False]
-    assert list(log_post.bounded_dims) == [True, False]
+    assert list(log_post.coordinates.log_dims) == [True, False]
+    assert list(log_post.coordinates.bounded_dims) == [True, False]
     U = log_post.to_u(np.column_stack([np.full(400, 2.0), np.zeros(400)]))
     U = U + np.random.default_rng(1).normal(scale=[0.1, 0.3], size=U.shape)
     proposal = nodes.NodeProposal.around(log_post, U)
@@ -50,7 +50,7 @@ def test_node_proposal_draws_its_own_density():
             stats.uniform(1.0, 2.0).logpdf(theta[:, 0])
             + np.log(slope / (2 * h))
             + stats.norm.logpdf(theta[:, 1])
-            + np.log(log_post.u_scale[1])
+            + np.log(log_post.coordinates.u_scale[1])
         )
     share = nodes.PRIOR_SHARE
     expected = np.logaddexp(np.log1p(-share) + t.logpdf(draws), np.log(share) + log_p)

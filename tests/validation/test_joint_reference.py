@@ -73,7 +73,7 @@ def test_joint_density_is_the_sum_of_its_parts(a1_fit):
     u, h = log_post.to_u(theta), 1e-6
     slope = (log_post.from_u(u + h) - log_post.from_u(u - h))[0] / (2 * h)
     log_prior_u = float(cal.prior_.logpdf(theta[None, :])[0]) + np.log(
-        slope / log_post.u_scale[0]
+        slope / log_post.coordinates.u_scale[0]
     )
     theta_std = (theta - cal.theta_offset_) / cal.theta_scale_
     model = cal.global_model_.base.with_discrepancy(space.component(v))

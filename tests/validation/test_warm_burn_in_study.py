@@ -20,6 +20,19 @@ import pytest
 from validation.studies.warm_burn_in import LONG, SHORT, one_fit
 
 
+def _assert_agrees(fit, reference):
+    """The mean, sd and 95 % ends of ``fit`` within four combined Monte
+    Carlo errors of ``reference``'s, and its sds within 7 % of them."""
+    (values, errors), (ref_values, ref_errors) = (
+        fit["estimates"],
+        reference["estimates"],
+    )
+    z = (values - ref_values) / np.hypot(errors, ref_errors)
+    assert np.all(np.abs(z) < 4)
+    ratio = values[1] / ref_values[1]
+    assert np.all((0.93 < ratio) & (ratio < 1.07))
+
+
 @pytest.mark.slow
 def test_the_default_second_pass_samples_the_posterior_of_a_stuck_first_pass():
     short, reference = (one_fit("sbc_a2", 35, v, 20000) for v in (SHORT, "reference"))
@@ -31,10 +44,6 @@ def test_the_default_second_pass_samples_the_posterior_of_a_stuck_first_pass():
     # shared Student-t they did not need to); either way the default's
     # answer is checked.
     assert short["rhat"] <= 1.01
-    (values, errors), (ref_values, ref_errors) = (
-        short["estimates"],
-        reference["estimates"],
-    )
     # The mean, sd and 95 % ends within four combined Monte Carlo errors of
     # the reference's, and the sd within 7 % from both sides (measured: 0.98
     # and 0.99 on an AVX-512 machine, 1.05 and 0.99 on an AMD EPYC without).
@@ -48,10 +57,7 @@ def test_the_default_second_pass_samples_the_posterior_of_a_stuck_first_pass():
     # and two other references 1.4905 and 1.4932); beyond 4 the chance is
     # 0.05-0.4 %. Stuck chains (sds 0.39-0.76 of the reference's here
     # before) fail both bounds.
-    z = (values - ref_values) / np.hypot(errors, ref_errors)
-    assert np.all(np.abs(z) < 4)
-    ratio = values[1] / ref_values[1]
-    assert np.all((0.93 < ratio) & (ratio < 1.07))
+    _assert_agrees(short, reference)
 
 
 @pytest.mark.slow
@@ -65,14 +71,7 @@ def test_a_first_pass_stuck_at_a_bound_no_longer_needs_the_full_burn_in():
     # in tests/calibration/test_estimator_calibration.py.
     assert not default["fell_back"] and default["runs"] == 1
     assert default["rhat"] <= 1.01 and long["rhat"] <= 1.01
-    (values, errors), (ref_values, ref_errors) = (
-        default["estimates"],
-        long["estimates"],
-    )
-    z = (values - ref_values) / np.hypot(errors, ref_errors)
-    assert np.all(np.abs(z) < 4)
-    ratio = values[1] / ref_values[1]
-    assert np.all((0.93 < ratio) & (ratio < 1.07))
+    _assert_agrees(default, long)
 
 
 @pytest.mark.slow
