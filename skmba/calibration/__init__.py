@@ -44,6 +44,8 @@ file                               holds
 ``_module2_errors.py``             its Monte Carlo errors (delta method)
 ``_module2_theta_grid.py``         theta's grids for it: the likelihood
                                    evaluated coarsely, splined finely
+``_module3_fit.py``                module 3 of a run: the posterior over
+                                   module 2's draws, module 4's rule
 ``_module3_likelihood.py``         module 3: the global model (Eq. 4.30),
                                    also for a stack of thetas at once
 ``_module3_mixture.py``            module 3 over module 2's draws

@@ -23,11 +23,11 @@ from thesis._helpers import fit, relative_error
 import skmba._core.linalg as linalg_module
 import skmba.calibration._module2_plug_in as discrepancy_module
 import skmba.calibration._module2_prior_integral as integration_module
+import skmba.calibration._module3_fit as module3_module
 import skmba.calibration._module3_likelihood as global_model_module
 import skmba.calibration._module3_posterior as posterior_module
 import skmba.calibration._module3_quadrature as quadrature_module
 import skmba.calibration._module4_prediction as prediction_module
-import skmba.calibration._pipeline as mba_module
 from skmba import ModularBayesCalibrator
 from skmba.calibration._module3_identifiability import IDENTIFIABILITY_THRESHOLD
 from skmba.datasets import make_cantilever
@@ -1076,7 +1076,7 @@ def test_the_second_pass_burns_in_a_quarter_and_an_update_all(monkeypatch):
     # the other branch).
     monkeypatch.setattr(posterior_module, "_mixed", lambda *args: True)
     data = make_cantilever(30, 12, parameters=("E", "I"), random_state=0)
-    assert mba_module.WARM_BURN_IN_SHARE == 0.25
+    assert module3_module.WARM_BURN_IN_SHARE == 0.25
     for burn_in, first, second in ((1000, 500, 250), (400, 400, 100), (60, 60, 60)):
         calls.clear()
         fit(data, n_restarts_optimizer=0, n_samples=250, burn_in=burn_in)
@@ -1117,7 +1117,7 @@ def test_a_second_pass_that_would_warn_runs_again_after_the_full_burn_in(
     params = dict(n_restarts_optimizer=0, n_samples=250, burn_in=400)
     again = fit(data, **params)
     assert calls == [400, 100, 400]
-    monkeypatch.setattr(mba_module, "WARM_BURN_IN_SHARE", 1.0)
+    monkeypatch.setattr(module3_module, "WARM_BURN_IN_SHARE", 1.0)
     calls.clear()
     full = fit(data, **params)
     assert calls == [400, 400]
@@ -1128,7 +1128,7 @@ def test_a_second_pass_that_would_warn_runs_again_after_the_full_burn_in(
 def patch_memory_check(monkeypatch, check):
     """Replace check_memory in every module that budgets memory."""
     for module in (
-        mba_module,
+        module3_module,
         integration_module,
         discrepancy_module,
         prediction_module,

@@ -10,7 +10,7 @@ import warnings
 import numpy as np
 import pytest
 
-import skmba.calibration._pipeline as pipeline
+import skmba.calibration._module3_fit as module3_fit
 import skmba.mcmc._reweight as reweight_module
 from skmba import ModularBayesCalibrator
 from skmba.calibration._module3_mixture import IDLE_WEIGHT, ModelMixture
@@ -144,9 +144,9 @@ def test_module_4_reads_the_weights_the_reweighting_computed(
     read = _update(eleven_months, day)
     assert sum(evaluated) == len(read.theta_nodes_)  # none for module 4
     monkeypatch.undo()
-    own = pipeline.reweighted_posterior
+    own = module3_fit.reweighted_posterior
     monkeypatch.setattr(
-        pipeline,
+        module3_fit,
         "reweighted_posterior",
         lambda *args, **kwargs: (own(*args, **kwargs)[0], None, None),
     )
@@ -195,13 +195,13 @@ def test_a_last_run_that_did_not_converge_is_not_reweighted():
 
 def _chains_arguments(monkeypatch):
     """The keyword arguments of the update's chains (posterior_by_mcmc)."""
-    calls, original = [], pipeline.posterior_by_mcmc
+    calls, original = [], module3_fit.posterior_by_mcmc
 
     def spy(log_posterior, **kwargs):
         calls.append(kwargs)
         return original(log_posterior, **kwargs)
 
-    monkeypatch.setattr(pipeline, "posterior_by_mcmc", spy)
+    monkeypatch.setattr(module3_fit, "posterior_by_mcmc", spy)
     return calls
 
 
@@ -220,7 +220,7 @@ def test_chains_start_from_a_refused_reweighting_with_enough_effective_draws(
     [kwargs] = calls
     assert kwargs["earlier_fits_proposal"]
     assert (kwargs["burn_in"], kwargs["fallback_burn_in"]) == (
-        pipeline.warm_burn_in(FAST["burn_in"]),
+        module3_fit.warm_burn_in(FAST["burn_in"]),
         FAST["burn_in"],
     )
     # systematic resampling of the anchor's nodes (thinned chains)

@@ -50,7 +50,7 @@ import numpy as np
 import threadpoolctl
 from joblib import Parallel, delayed
 
-import skmba.calibration._pipeline as pipeline
+import skmba.calibration._module3_fit as module3_fit
 from skmba import ModularBayesCalibrator
 from skmba.mcmc._proposals import TProposal
 from validation.suite import registry
@@ -77,7 +77,7 @@ def _data(case, seed):
 def _fit_capturing(case, seed):
     """The default fit, with the second pass's log posterior and the first
     pass's draws (the chains' ``earlier``) captured on the way."""
-    captured, original = {}, pipeline.posterior_by_mcmc
+    captured, original = {}, module3_fit.posterior_by_mcmc
 
     def spy(log_posterior, **kwargs):
         if kwargs.get("check", True) and kwargs.get("earlier") is not None:
@@ -87,7 +87,7 @@ def _fit_capturing(case, seed):
 
     prior, X, y, X_sim, theta_sim, y_sim = _data(case, seed)
     cal = ModularBayesCalibrator(prior=prior, random_state=seed, n_jobs=1)
-    pipeline.posterior_by_mcmc = spy
+    module3_fit.posterior_by_mcmc = spy
     try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
@@ -95,7 +95,7 @@ def _fit_capturing(case, seed):
             cal.fit(X, y, X_sim=X_sim, theta_sim=theta_sim, y_sim=y_sim)
             seconds = time.perf_counter() - started
     finally:
-        pipeline.posterior_by_mcmc = original
+        module3_fit.posterior_by_mcmc = original
     warned = any(
         "R-hat" in str(w.message) or "effective sample size" in str(w.message)
         for w in caught

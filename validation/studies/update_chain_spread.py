@@ -13,7 +13,7 @@ defaults with ``bin_width=2`` and ``random_state=s``, ``fit`` on the first
 ``--fit-days`` days, then ``partial_fit`` with the next ``--days`` days,
 the reweighting refused (its share threshold set above one). Module 3's
 inputs are kept from that call, and its chains
-(``skmba.calibration._pipeline._posterior``) run again with
+(``skmba.calibration._module3_fit.sample_posterior``) run again with
 ``--chain-seeds`` seeds in each version:
 
 - ``placed``: as shipped, started from the refused reweighting's draws,
@@ -52,8 +52,8 @@ import numpy as np
 import threadpoolctl
 from joblib import Parallel, delayed
 
+import skmba.calibration._module3_fit as module3_fit
 import skmba.calibration._module3_update as update_module
-import skmba.calibration._pipeline as pipeline
 import skmba.mcmc._reweight as reweight_module
 from skmba import ModularBayesCalibrator
 from skmba.datasets import make_bridge_monitoring
@@ -66,7 +66,7 @@ VERSIONS = ("placed", "last posterior")
 
 def captured_update(seed, fit_days, days):
     """Module 3's inputs of seed ``seed``'s update with the reweighting
-    refused: the arguments of ``_pipeline._posterior`` (the last of them
+    refused: the arguments of ``_module3_fit.sample_posterior`` (the last of them
     the refused reweighting that places the chains, or None) and the
     reweighting's Kish share (NaN where the fit's chains warned and left no
     draws to reweight)."""
@@ -82,7 +82,7 @@ def captured_update(seed, fit_days, days):
         X[first], Y[first], X_sim=data.X_sim, theta_sim=data.theta_sim, y_sim=data.y_sim
     )
     kept, shares = {}, []
-    posterior, weighted = pipeline._posterior, update_module.weighted
+    posterior, weighted = module3_fit.sample_posterior, update_module.weighted
 
     def keep(*args):
         if not args[3]:  # module 3's own chains, not a first pass's
@@ -95,7 +95,7 @@ def captured_update(seed, fit_days, days):
         return result, share
 
     with (
-        patch.object(pipeline, "_posterior", keep),
+        patch.object(module3_fit, "sample_posterior", keep),
         patch.object(update_module, "weighted", recorded),
         patch.object(reweight_module, "REWEIGHT_SHARE", 2.0),  # above one: chains
     ):
@@ -134,7 +134,7 @@ def one_seed(seed, fit_days, days, chain_seeds, fixed_draws=None, versions=VERSI
             runs = []
             for k in range(chain_seeds):
                 started = time.perf_counter()
-                posterior = pipeline._posterior(
+                posterior = module3_fit.sample_posterior(
                     inputs,
                     log_post,
                     10_000 + k,

@@ -60,7 +60,7 @@ from joblib import Parallel, delayed
 
 import skmba.calibration._module3_posterior as posterior_module
 from skmba import ModularBayesCalibrator
-from skmba.calibration._pipeline import WARM_BURN_IN_SHARE
+from skmba.calibration._module3_fit import WARM_BURN_IN_SHARE
 from skmba.datasets import make_cantilever
 from skmba.mcmc._run import run_chains
 from validation.statistics import rms_band
