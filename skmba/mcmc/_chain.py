@@ -55,7 +55,7 @@ from skmba.mcmc._proposals import (
     label_proposal,
     window_moments,
 )
-from skmba.mcmc._stopping import CHECK_EVERY
+from skmba.mcmc._stopping import CHECK_EVERY, STOP_GRID
 from skmba.mcmc._target import (
     evaluate,
     evaluate_batch,
@@ -80,11 +80,13 @@ ADAPT_INTERVAL = 50
 MIN_ADAPTIVE_BURN_IN = 2 * ADAPT_INTERVAL
 # Robbins-Monro gain on the log scale factor at burn-in step t: (t + 1)^-0.5.
 _GAIN_EXPONENT = 0.5
-# Number of steps per block of pre-drawn random numbers (and of independence
-# proposals evaluated together) after burn-in: the spacing of the ESS
-# target's checkpoints, so that chains stopped at one have evaluated no
-# proposal past it (with blocks of 1024, 4.7.3's chains stopped at 1,250
-# or 1,500 draws left a quarter or a sixth of their evaluations unused).
+# Number of steps per block of pre-drawn random numbers after burn-in: the
+# spacing of the ESS target's checkpoints. Their independence proposals are
+# evaluated in groups of STOP_GRID steps as the chain reaches them, so that
+# chains stopped at a checkpoint, or at one predicted on that grid, have
+# evaluated no proposal past it (with blocks of 1024 evaluated at once,
+# 4.7.3's chains stopped at 1,250 or 1,500 draws left a quarter or a sixth
+# of their evaluations unused).
 _BLOCK = CHECK_EVERY
 # Independence moves begin this far into the burn-in: the first part is a
 # random walk whose scale and shape adapt at full speed (its Robbins-Monro
@@ -114,7 +116,9 @@ class _Block:
     unused), with the proposed ``labels`` of a labelled target and, for a
     chain that keeps its target's blobs, their ``blobs`` (None otherwise);
     ``label_u`` are the uniforms of a labelled target's label proposals and
-    Gibbs updates (None otherwise). ``next`` is the first step not yet made.
+    Gibbs updates (None otherwise). ``next`` is the first step not yet made,
+    ``evaluated`` the first whose proposal's densities are not yet computed
+    (:meth:`Chain._evaluate`).
     """
 
     increments: np.ndarray
@@ -127,6 +131,7 @@ class _Block:
     label_u: np.ndarray | None
     blobs: np.ndarray | None = None
     next: int = 0
+    evaluated: int = 0
 
 
 class Chain:
@@ -136,8 +141,9 @@ class Chain:
     ``ADAPT_INTERVAL`` steps, then ``n_samples`` draws with the frozen
     kernel in blocks of ``_BLOCK`` steps (a block that a segment leaves
     unfinished is kept in ``pending``). The random numbers and the
-    independence proposals of a block, with their densities, are computed
-    before its first step. The generator and all the state travel with
+    independence proposals of a block are drawn before its first step, and
+    the proposals' densities computed in groups of ``STOP_GRID`` steps
+    (:meth:`_evaluate`). The generator and all the state travel with
     the object, so that a chain run in several segments, in any processes,
     gives the draws of one run. With ``keep_blobs`` the draws' evaluations
     go through the target's ``with_blob`` and ``batch_with_blobs``, and
@@ -265,7 +271,7 @@ class Chain:
         if self.labelled and self.keep_log_density:
             self._marginal_values(log_density)
 
-    def _block(self, log_density, m, chol):
+    def _block(self, m, chol):
         """The :class:`_Block` of the next ``m`` steps.
 
         The generator's draws for the random walk alone (no independence
@@ -280,7 +286,6 @@ class Chain:
         values = g_values = np.empty(m)
         labels = np.zeros(m, dtype=int)
         label_u = self.rng.random(m) if self.labelled else None
-        blobs = None
         if self.proposal is not None and self.independence > 0.0:
             independent = self.rng.random(m) < self.independence
             k = int(independent.sum())
@@ -290,37 +295,44 @@ class Chain:
                 picked = np.searchsorted(
                     np.cumsum(self.label_probs), label_u[independent], side="right"
                 )
-                drawn = np.minimum(picked, self.n_labels - 1)
-                labels[independent] = drawn
-                values[independent] = evaluate_labelled(
-                    log_density, proposals[independent], drawn, self.chain
-                )
-                g_values[independent] = self.proposal.logpdf(
-                    proposals[independent]
-                ) + np.log(self.label_probs[drawn])
-            elif k and self.keep_blobs and self.frozen:
-                values[independent], drawn = evaluate_batch_with_blobs(
-                    log_density, proposals[independent], self.chain
-                )
-                blobs = np.empty((m, *drawn.shape[1:]))
-                blobs[independent] = drawn
-                g_values[independent] = self.proposal.logpdf(proposals[independent])
-            elif k:
-                values[independent] = evaluate_batch(
-                    log_density, proposals[independent], self.chain
-                )
-                g_values[independent] = self.proposal.logpdf(proposals[independent])
+                labels[independent] = np.minimum(picked, self.n_labels - 1)
         return _Block(
-            increments,
-            log_u,
-            independent,
-            proposals,
-            values,
-            g_values,
-            labels,
-            label_u,
-            blobs,
+            increments, log_u, independent, proposals, values, g_values, labels, label_u
         )
+
+    def _evaluate(self, log_density, block, until):
+        """The target's and the proposal's log densities at the independence
+        proposals of ``block``'s steps before ``until``, in groups of
+        ``STOP_GRID`` steps (a group is evaluated whole, together, the first
+        time a step of it is reached): the same groups whatever the
+        segments, and none past a stop on the grid."""
+        while block.evaluated < until:
+            start = block.evaluated
+            block.evaluated = min(len(block.log_u), start + STOP_GRID)
+            steps = start + np.flatnonzero(block.independent[start : block.evaluated])
+            if len(steps):
+                self._evaluate_steps(log_density, block, steps)
+
+    def _evaluate_steps(self, log_density, block, steps):
+        """:meth:`_evaluate` for the independence moves ``steps`` of ``block``."""
+        points = block.proposals[steps]
+        g_values = self.proposal.logpdf(points)
+        if self.labelled:
+            drawn = block.labels[steps]
+            block.values[steps] = evaluate_labelled(
+                log_density, points, drawn, self.chain
+            )
+            g_values = g_values + np.log(self.label_probs[drawn])
+        elif self.keep_blobs and self.frozen:
+            block.values[steps], drawn = evaluate_batch_with_blobs(
+                log_density, points, self.chain
+            )
+            if block.blobs is None:
+                block.blobs = np.empty((len(block.log_u), *drawn.shape[1:]))
+            block.blobs[steps] = drawn
+        else:
+            block.values[steps] = evaluate_batch(log_density, points, self.chain)
+        block.g_values[steps] = g_values
 
     def _step(self, log_density, block, i, scale=1.0):
         """Step ``i`` of ``block`` from ``self.theta``.
@@ -376,7 +388,8 @@ class Chain:
             if step > 0:  # the first block's label is drawn by advance
                 self._gibbs_label(log_density, self.rng.random())
             self.label_conditionals[b] = self.conditional
-        block = self._block(log_density, m, self.chol)
+        block = self._block(m, self.chol)
+        self._evaluate(log_density, block, m)
         path = np.empty((m, r))
         n_accept = 0
         # The joint check judges the proposals fitted to the burn-in, not
@@ -559,9 +572,10 @@ class Chain:
         while step < end:
             if self.pending is None:
                 m = min(_BLOCK, self.n_samples - step)
-                self.pending = self._block(log_density, m, self.chol)
+                self.pending = self._block(m, self.chol)
             block = self.pending
             stop = min(len(block.log_u), block.next + end - step)
+            self._evaluate(log_density, block, stop)
             # Without label proposals, Gibbs updates move the label.
             gibbs = self.labelled and (
                 self.label_probs is None or not self.independence

@@ -408,10 +408,12 @@ def _advance_in_segments(
     """Run the chains ``states`` to their end, replacing each by the state
     its last task returned; the bar moves as each segment returns. At each
     checkpoint of ``stopping`` that its rule finds met, the chains stop
-    there (:meth:`~skmba.mcmc._chain.Chain.stop`)."""
+    there (:meth:`~skmba.mcmc._chain.Chain.stop`); one that is not met adds
+    the checkpoint the rule predicts (:meth:`~skmba.mcmc._stopping.EssTarget.
+    judge`) when it comes before the next one."""
     total, burn_in = states[0].total, states[0].burn_in
     segment = -(-total // _PROGRESS_SEGMENTS) if progress.enabled else total
-    checks = [] if stopping is None else stopping.checkpoints(burn_in, total)
+    checks = set() if stopping is None else set(stopping.checkpoints(burn_in, total))
     shared = _shares_proposal(states)
     ends = sorted(
         {*range(segment, total, segment), *checks, *([burn_in] * shared), total}
@@ -425,7 +427,8 @@ def _advance_in_segments(
         ) as bar,
         blas_threads(blas_order, n_jobs),
     ):
-        for until in ends:
+        while ends:
+            until = ends.pop(0)
             active = [c for c in range(len(states)) if done[c] < until]
             tasks = (
                 delayed(_advance)(densities[c], states[c], until, blas_order, n_jobs)
@@ -438,9 +441,12 @@ def _advance_in_segments(
                 done[c] = state.steps
             if shared and until == burn_in:
                 _share_proposal(states, points)
-            if until in checks and stopping.met(
+            if until not in checks:
+                continue
+            met, predicted = stopping.judge(
                 np.stack([state.samples[: state.drawn] for state in states])
-            ):
+            )
+            if met:
                 _stop(densities, states, n_jobs, blas_order)
                 bar.update(len(states) * total - sum(done))
                 progress.detail(
@@ -448,6 +454,10 @@ def _advance_in_segments(
                     f"target ESS {stopping.ess:g} is reached"
                 )
                 return
+            following = min(c for c in (*checks, total) if c > until)
+            if predicted is not None and until < burn_in + predicted < following:
+                checks.add(burn_in + predicted)
+                ends = sorted({*ends, burn_in + predicted})
 
 
 def _shares_proposal(states):

@@ -31,9 +31,14 @@ import numpy as np
 from skmba.mcmc._diagnostics import ess_bulk, ess_tail, split_rhat
 
 #: Draws per chain between checkpoints (:attr:`EssTarget.every`'s
-#: default); the chains' blocks of draws have this length too
-#: (:mod:`skmba.mcmc._chain`), so that a stop wastes no evaluated proposal.
+#: default); the chains' blocks of random numbers have this length too
+#: (:mod:`skmba.mcmc._chain`).
 CHECK_EVERY = 250
+#: Draws per chain between the places where a run may stop: a checkpoint
+#: predicted between two regular ones (:meth:`EssTarget.predicted`) falls
+#: on this grid, and the chains evaluate their independence proposals in
+#: groups of this many steps, so that a stop wastes no evaluated proposal.
+STOP_GRID = 50
 
 
 @dataclass(frozen=True)
@@ -51,11 +56,15 @@ class EssTarget:
     every : int, default=250
         Draws per chain between checkpoints; the first checkpoint is after
         ``every`` draws.
+    grid : int, default=50
+        Draws per chain between the places where :meth:`predicted` may put
+        a checkpoint (a divisor of ``every``).
     """
 
     ess: float
     max_rhat: float = 1.01
     every: int = CHECK_EVERY
+    grid: int = STOP_GRID
 
     def checkpoints(self, burn_in, total):
         """The steps (burn-in included) after which the draws are judged;
@@ -75,9 +84,39 @@ class EssTarget:
     def met(self, draws):
         """Whether ``draws`` (n_chains, n_draws, r) meet the target (NaN
         diagnostics, e.g. of a parameter that never moved, do not)."""
+        return self.judge(draws)[0]
+
+    def judge(self, draws):
+        """Whether ``draws`` (n_chains, n_draws, r) meet the target, and the
+        draws per chain at which they are predicted to (:meth:`predicted`;
+        None when met)."""
         bulk, tail, rhat = self.diagnostics(draws)
-        return bool(
+        if (
             np.all(bulk >= self.ess)
             and np.all(tail >= self.ess)
             and np.all(rhat <= self.max_rhat)
-        )
+        ):
+            return True, None
+        return False, self.predicted(draws.shape[1], bulk, tail, rhat)
+
+    def predicted(self, n_draws, bulk, tail, rhat):
+        """Where the target is predicted to be met, from the diagnostics of
+        ``n_draws`` draws per chain: the effective sample sizes grown in
+        proportion to the draws, rounded up to the :attr:`grid`; None where
+        R-hat is above :attr:`max_rhat` or a diagnostic is NaN (no
+        prediction: the next checkpoint judges).
+
+        Examples
+        --------
+        >>> rule = EssTarget(ess=2000)
+        >>> bulk, tail, rhat = np.array([1932.0]), np.array([2269.0]), np.array([1.002])
+        >>> rule.predicted(1250, bulk, tail, rhat)
+        1300
+        """
+        ess = np.concatenate([bulk, tail])
+        if not (np.all(np.isfinite(ess)) and np.all(ess > 0)):
+            return None
+        if not np.all(rhat <= self.max_rhat):
+            return None
+        needed = n_draws * self.ess / float(np.min(ess))
+        return int(-(-needed // self.grid) * self.grid)

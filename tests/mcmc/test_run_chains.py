@@ -14,7 +14,7 @@ from skmba.mcmc._chain import Chain
 from skmba.mcmc._diagnostics import check_diagnostics, ess_bulk
 from skmba.mcmc._proposals import T_VARIANCE_FACTOR, TProposal, label_proposal
 from skmba.mcmc._run import ChainResult, run_chains
-from skmba.mcmc._stopping import CHECK_EVERY, EssTarget
+from skmba.mcmc._stopping import STOP_GRID, EssTarget
 
 # A 2-D Gaussian whose scales differ by 1e5 and whose correlation is -0.9:
 # far from the default proposal (2.38^2 / 2) I, so that only an adapted
@@ -466,12 +466,11 @@ def test_a_batch_method_gets_the_independence_proposals_of_a_block():
     result = _mixed(batched, starts, 0.9, 4, **kwargs)
     # The same draws as one call per proposal.
     _assert_identical(result, _mixed(standard_normal, starts, 0.9, 4, **kwargs))
-    # From halfway through the burn-in on: blocks of 50 steps, then blocks
-    # as long as the spacing of the ESS target's checkpoints (250 draws).
-    assert CHECK_EVERY == 250
-    assert len(batched.calls) == 5 + 8
-    assert all(30 <= c <= 50 for c in batched.calls[:5])
-    assert all(200 <= c <= 250 for c in batched.calls[5:])
+    # From halfway through the burn-in on: blocks of 50 steps, then the
+    # draws' groups of the stops' grid (50 draws).
+    assert STOP_GRID == 50
+    assert len(batched.calls) == 5 + 2000 // STOP_GRID
+    assert all(30 <= c <= 50 for c in batched.calls)
 
 
 def test_a_batch_method_that_returns_nan_is_an_error():
@@ -784,8 +783,8 @@ def test_moments_start_the_independence_moves_at_the_first_step():
     starts = np.ones((1, 2))
     result = _mixed(batched, starts, 0.9, 4, moments=(np.zeros(2), np.eye(2)), **kwargs)
     # Every block of the burn-in (10 of 50 steps) gets its proposals, then
-    # the eight blocks of the draws.
-    assert len(batched.calls) == 10 + 8
+    # the draws' 40 groups of 50.
+    assert len(batched.calls) == 10 + 2000 // STOP_GRID
     assert all(30 <= c <= 50 for c in batched.calls[:10])
     assert not np.array_equal(
         result.samples, _mixed(batched, starts, 0.9, 4, **kwargs).samples

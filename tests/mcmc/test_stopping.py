@@ -6,7 +6,7 @@ import pytest
 
 from skmba.mcmc._diagnostics import ess_bulk, ess_tail, split_rhat
 from skmba.mcmc._run import run_chains
-from skmba.mcmc._stopping import CHECK_EVERY, EssTarget
+from skmba.mcmc._stopping import STOP_GRID, EssTarget
 from tests.mcmc.test_run_chains import _Batched, _GaussianMixture
 
 SCALES = np.array([10.0, 0.1])
@@ -40,15 +40,50 @@ def test_stopped_draws_are_the_first_draws_of_the_full_run(full, n_jobs, verbose
 
 @pytest.mark.parametrize("target", [500, 2000, 5000])
 def test_the_chains_stop_at_the_first_checkpoint_that_meets_the_target(full, target):
+    """The regular checkpoints, and between two of them the one the rule
+    predicts from the last (on its grid): the first judged met stops."""
     rule = EssTarget(target)
     stopped = run(stopping=rule)
     m = stopped.samples.shape[1]
-    assert m % rule.every == 0
+    assert m % rule.grid == 0
     bulk, tail, rhat = rule.diagnostics(stopped.samples)
     assert np.all(bulk >= target) and np.all(tail >= target)
     assert np.all(rhat <= 1.01)
-    # One checkpoint earlier, the draws of the full run fall short.
-    assert not rule.met(full.samples[:, : m - rule.every])
+    # The last regular checkpoint before the stop fell short; a stop off the
+    # regular ones is where it predicted, or a point of the grid after it.
+    regular = (m - 1) // rule.every * rule.every
+    if regular:
+        met, predicted = rule.judge(full.samples[:, :regular])
+        assert not met
+        if m % rule.every:  # a predicted checkpoint
+            assert predicted is not None and regular < predicted <= m
+
+
+def test_a_predicted_checkpoint_stops_the_chains_between_regular_ones(full):
+    """Judged at 2250 draws, the ESS predicts the target at 2350: the chains
+    stop there, with the draws of the full run, rather than at 2500."""
+    rule = EssTarget(5000)
+    assert rule.judge(full.samples[:, :2250]) == (False, 2350)
+    stopped = run(stopping=rule)
+    assert stopped.samples.shape[1] == 2350
+    np.testing.assert_array_equal(stopped.samples, full.samples[:, :2350])
+    np.testing.assert_array_equal(stopped.log_density, full.log_density[:, :2350])
+
+
+def test_the_prediction_scales_the_smallest_ess_to_the_target():
+    rule = EssTarget(1000, grid=50)
+    ones = np.ones(2)
+    # 400 draws worth 700 (tail) of the 1000: 400 / 0.7 = 571.4 -> 600
+    assert rule.predicted(400, np.array([900.0, 800.0]), np.array([700.0, 950.0]),
+                          ones) == 600  # fmt: skip
+    assert rule.predicted(400, np.full(2, 800.0), np.full(2, 800.0), ones) == 500
+    # no prediction where R-hat is too high or an ESS is not finite
+    assert (
+        rule.predicted(400, np.full(2, 800.0), np.full(2, 800.0), ones * 1.05) is None
+    )
+    assert (
+        rule.predicted(400, np.array([800.0, np.nan]), np.full(2, 800.0), ones) is None
+    )
 
 
 def test_a_target_out_of_reach_runs_to_n_samples(full):
@@ -120,17 +155,20 @@ def test_a_parameter_that_never_moved_does_not_meet_the_target():
 
 
 def test_chains_stopped_at_a_checkpoint_evaluated_no_proposal_beyond_it():
-    """The blocks of draws are as long as the checkpoints' spacing: a stop
-    wastes no evaluated independence proposal (blocks of 1,024 steps had
-    evaluated about 900 per chain when a run stopped at 500 draws)."""
+    """The independence proposals are evaluated in groups of the stops'
+    grid as the chains reach them: a stop wastes no evaluated proposal
+    (blocks of 1,024 steps evaluated at once had evaluated about 900 per
+    chain when a run stopped at 500 draws)."""
     batched = _Batched()
     stopped = run_chains(batched, np.zeros((2, 2)), n_samples=3000, burn_in=500,
                          independence=0.9, random_state=0, n_jobs=1,
                          stopping=EssTarget(1000))  # fmt: skip
     m = stopped.samples.shape[1]
-    assert m < 3000 and m % CHECK_EVERY == 0
-    after = [c for c in batched.calls if c > 50]  # burn-in blocks: 50 steps
-    assert len(after) == 2 * (m // CHECK_EVERY)
+    assert m < 3000 and m % STOP_GRID == 0
+    # The burn-in's: 5 blocks of 50 steps per chain, from halfway through.
+    after = batched.calls[2 * 5 :]
+    assert len(after) == 2 * (m // STOP_GRID)
+    assert all(c <= STOP_GRID for c in after)
     # the proposals evaluated after burn-in are those of the draws kept:
     # about 9 in 10 of their steps, none beyond them
     assert 0.85 * 2 * m <= sum(after) <= 0.95 * 2 * m
