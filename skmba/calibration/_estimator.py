@@ -120,9 +120,10 @@ class ModularBayesCalibrator(
         most), or the number of draws ``theta_samples_`` resampled from the
         quadrature posterior.
     target_ess : float or None, default=2000
-        MCMC: the chains stop at the first checkpoint (every 250 draws) where
-        every parameter's bulk and tail effective sample size reach it and
-        its R-hat is at most 1.01; None: always ``n_samples`` draws. Ask
+        MCMC: the chains stop at the first checkpoint (every 250 draws, and
+        where a checkpoint that fell short predicts it) where every
+        parameter's bulk and tail effective sample size reach it and its
+        R-hat is at most 1.01; None: always ``n_samples`` draws. Ask
         for more (with a larger ``n_samples``) for finer interval ends.
     burn_in : int, default=1000
         Draws per chain discarded; the proposal adapts during burn-in only.

@@ -7,7 +7,10 @@ the processes of the run), the draws so far are judged, and the chains stop
 at the first checkpoint where every parameter's bulk and tail effective
 sample size (:func:`~skmba.mcmc._diagnostics.ess_bulk`,
 :func:`~skmba.mcmc._diagnostics.ess_tail`) reach the target and its split
-R-hat is at most :attr:`EssTarget.max_rhat`. Stopped there, a chain's draws
+R-hat is at most :attr:`EssTarget.max_rhat`. A checkpoint that falls short
+predicts where the target will be met (:meth:`EssTarget.predicted`, on a
+grid of :attr:`EssTarget.grid` draws), which is judged too when it comes
+before the next checkpoint. Stopped there, a chain's draws
 are the first draws of a run that went on: the rule chooses a length, it
 does not change a draw. Why the calibrator stops at 2000 is in
 docs/internals.rst (section skmba.mcmc._stopping).
