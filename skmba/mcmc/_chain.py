@@ -80,13 +80,10 @@ ADAPT_INTERVAL = 50
 MIN_ADAPTIVE_BURN_IN = 2 * ADAPT_INTERVAL
 # Robbins-Monro gain on the log scale factor at burn-in step t: (t + 1)^-0.5.
 _GAIN_EXPONENT = 0.5
-# Number of steps per block of pre-drawn random numbers after burn-in: the
-# spacing of the ESS target's checkpoints. Their independence proposals are
-# evaluated in groups of STOP_GRID steps as the chain reaches them, so that
-# chains stopped at a checkpoint, or at one predicted on that grid, have
-# evaluated no proposal past it (with blocks of 1024 evaluated at once,
-# 4.7.3's chains stopped at 1,250 or 1,500 draws left a quarter or a sixth
-# of their evaluations unused).
+# Steps per block of pre-drawn random numbers after burn-in (the ESS target's
+# checkpoint spacing); its proposals are evaluated in groups of STOP_GRID
+# steps as the chain reaches them, so a stop on that grid leaves none unused
+# (blocks of 1024 evaluated at once left a quarter of 4.7.3's unused).
 _BLOCK = CHECK_EVERY
 # Independence moves begin this far into the burn-in: the first part is a
 # random walk whose scale and shape adapt at full speed (its Robbins-Monro
