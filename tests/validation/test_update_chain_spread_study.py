@@ -19,7 +19,9 @@ def test_placed_update_chains_spread_as_their_errors_say():
     # that place the chains, so the version is the placed chains.
     assert out["from_weights"] and 0.3 < out["share"] < 1.0
     runs = out["placed"]
-    assert np.all(runs["draws"] >= 1500)  # ESS 2000 at about 0.3 per draw
+    # ESS 2000 at 0.3-0.4 per draw, stopped on the 50-draw grid where the
+    # target is predicted (measured 1,350-1,600; 1,500-1,750 before that).
+    assert np.all((runs["draws"] >= 1000) & (runs["draws"] <= 2500))
     ratio, _, _ = spread_ratio(runs["estimates"][None], runs["errors"][None])
     # Honest errors put each ratio (9 degrees of freedom) in its central
     # 99.9 % range; over the study's 10 data seeds x 30 chain seeds the

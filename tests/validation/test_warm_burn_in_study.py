@@ -10,9 +10,10 @@ its prior's bound) and 250 steps left the chains unmixed (R-hat 1.83), so
 the calibrator ran them again after the full burn-in; with the soft ends
 of a finite support the 250 steps mix and agree with the full burn-in's
 run. An update's chains start further from their posterior: on b2 seed
-21, updated with three quarters of its field data, 250 steps give
-narrower sds than the full burn-in with twice the steps (and, before the
-soft ends, an R-hat above 1.01), so updates keep the full burn-in."""
+21, updated with three quarters of its field data, 250 steps need 1.75
+times the full burn-in's steps for the same answer (before the predicted
+stop they ran to n_samples and gave narrower sds), so updates keep the
+full burn-in."""
 
 import numpy as np
 import pytest
@@ -81,14 +82,14 @@ def test_an_update_after_the_short_burn_in_mixes_worse_at_a_higher_cost():
     # are the same in both; only the update's chains differ, one run each.
     np.testing.assert_array_equal(short["module2"], long["module2"])
     assert short["runs"] == long["runs"] == 1
-    # After the short burn-in the chains run to n_samples without meeting
-    # the ESS target (21,000 steps against 10,000) and give sds 0.90 and
-    # 0.80 of those after the full burn-in, silently: with soft ends their
-    # R-hat is 1.003 (1.015 in log coordinates, with sds 0.96 and 0.88;
-    # with one shared Student-t 0.81 and 0.83 at R-hat 1.004). The smaller
-    # ratio has been 0.80-0.88 over these versions; another processor's
-    # chain path may take it a little lower.
-    assert short["rhat"] < 1.05 and long["rhat"] <= 1.01
-    assert short["steps"] > long["steps"]
-    ratio = short["estimates"][0][1] / long["estimates"][0][1]
-    assert 0.72 < ratio.min() < 0.92 and ratio.max() < 1.0
+    # Stopped where the ESS target is predicted to be met, the short
+    # burn-in's chains meet it at 3,700 draws per chain (15,800 steps)
+    # against 1,250 (9,000 steps) after the full burn-in, and agree with it
+    # (sds 1.01 and 0.98 of its, |z| at most 1.4, measured). Run on to
+    # n_samples without the predicted stop they gave sds 0.90 and 0.80 at
+    # R-hat 1.003 (0.96 and 0.88 at R-hat 1.015 in log coordinates): the
+    # short burn-in costs more steps for an answer no better.
+    assert short["rhat"] <= 1.01 and long["rhat"] <= 1.01
+    assert 1.4 * long["steps"] < short["steps"] < 21000
+    assert short["draws"] > 2 * long["draws"]
+    _assert_agrees(short, long)
