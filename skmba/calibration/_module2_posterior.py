@@ -41,6 +41,7 @@ Examples
 from dataclasses import dataclass
 
 import numpy as np
+from joblib import Parallel, delayed
 from scipy import special, stats
 from scipy.stats import qmc
 
@@ -48,6 +49,7 @@ from skmba._core.linalg import FactorizationError, proposal_covariance
 from skmba._core.progress import as_progress, start_reporter
 from skmba._core.regression import regression_basis
 from skmba._core.search import gradient_hessian, preconditioned_minimum
+from skmba._core.threads import BlasTask
 from skmba._core.validation import seed_sequence
 from skmba.calibration._module2_kernel import bounded_kernel, discrepancy_kernel
 from skmba.calibration._module2_plug_in import DiscrepancyFit, check_module2_memory
@@ -59,8 +61,11 @@ PROPOSAL_DF = 5.0
 N_HYPER_DRAWS = 16
 #: Share of the proposal (and of the draws) that is the prior itself.
 PRIOR_SHARE = 0.25
-#: Draws of the importance estimate of the noise variances' posterior mean.
+#: Draws of the importance estimate of the noise variances' posterior mean,
+#: and the joblib tasks they are evaluated in (on a day's update of the
+#: monitored bridge: 0.22 s in one process, 0.15 s with ``n_jobs=2``).
 N_NOISE_DRAWS = 512
+NOISE_TASKS = 4
 # Variance given to a flat direction of the Laplace approximation.
 _FLAT_VARIANCE = 4.0
 
@@ -301,18 +306,28 @@ def proposal_log_density(mode, cov, V, log_p, prior_share=PRIOR_SHARE):
     return np.logaddexp(np.log1p(-prior_share) + log_t, np.log(prior_share) + log_p)
 
 
-def _noise_posterior_mean(coords, mode, cov, seed):
+def _log_posteriors(coords, draws):
+    """``coords.log_posterior`` (no gradient) at the rows of ``draws``."""
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+        return [coords.log_posterior(v, eval_gradient=False) for v in draws]
+
+
+def _noise_posterior_mean(coords, mode, cov, seed, n_jobs=None):
     """Posterior mean of the noise variances and its effective sample size.
 
     Self-normalised importance sampling with :data:`N_NOISE_DRAWS` draws of
     the defensive proposal of :func:`proposal_draws`, weighted by the
-    module-2 posterior (restricted likelihood, prior and Jacobian).
+    module-2 posterior (restricted likelihood, prior and Jacobian), which
+    is evaluated in :data:`NOISE_TASKS` joblib tasks of ``n_jobs`` (each
+    draw on its own: the same values for any ``n_jobs``).
     """
     draws, _, log_q = proposal_draws(coords, mode, cov, N_NOISE_DRAWS, seed)
-    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
-        log_post = np.array(
-            [coords.log_posterior(v, eval_gradient=False) for v in draws]
+    task = BlasTask(_log_posteriors, len(coords.fit.V_fixed), n_jobs)
+    with task.held():
+        parts = Parallel(n_jobs=n_jobs)(
+            delayed(task)(coords, chunk) for chunk in np.array_split(draws, NOISE_TASKS)
         )
+    log_post = np.concatenate(parts)
     log_w = np.where(np.isfinite(log_post), log_post - log_q, -np.inf)
     w = np.exp(log_w - special.logsumexp(log_w))
     noise = np.array([coords.fit.unpack(coords.to_p(v)[0])[1] for v in draws])
@@ -476,6 +491,7 @@ def fit_hyperposterior(
     noise_mean=True,
     replicates=None,
     start=None,
+    n_jobs=None,
 ):
     """Module 2b with its uncertainty: mode, Laplace and draws of ``phi``.
 
@@ -511,6 +527,9 @@ def fit_hyperposterior(
     start : ndarray, default=None
         Coordinates (``HyperposteriorDraws.mode_coordinates``) of an earlier
         mode to start the search at (an update with more readings).
+    n_jobs : int, default=None
+        joblib workers of the noise variances' posterior mean (the same
+        values for any number).
 
     Returns
     -------
@@ -529,7 +548,7 @@ def fit_hyperposterior(
     log_w -= special.logsumexp(log_w)
     components = [coords.component(v) for v in draws]
     noise = (
-        _noise_posterior_mean(coords, best.x, cov, noise_seed)
+        _noise_posterior_mean(coords, best.x, cov, noise_seed, n_jobs)
         if noise_mean
         else (None, None)
     )

@@ -429,6 +429,7 @@ def _draws(inputs, integrated, prior, seed, label, predicts=True):
         noise_mean=predicts,
         replicates=inputs.replicates,
         start=(None if inputs.warm is None else inputs.warm.module2.mode_coordinates),
+        n_jobs=inputs.settings.n_jobs,
     )
     how = f"{label}: posterior mode; {len(draws.components)} draws"
     _say_module2(inputs, started, draws.mode, how)

@@ -84,6 +84,18 @@ def test_draws_and_weights():
     np.testing.assert_array_equal(again.log_weights, draws.log_weights)
 
 
+def test_the_noise_posterior_mean_is_the_same_for_any_n_jobs():
+    """Its 512 evaluations run in joblib tasks, each draw on its own: the
+    same importance weights, so the same mean and ESS, bit for bit."""
+    X, Y, V = _data(3)
+    kwargs = dict(prior=Hyperprior(), n_draws=16, random_state=0)
+    one = fit_hyperposterior(X, Y, V, **kwargs)
+    two = fit_hyperposterior(X, Y, V, n_jobs=2, **kwargs)
+    assert one.noise_mean is not None and one.noise_ess > 1.0
+    np.testing.assert_array_equal(two.noise_mean, one.noise_mean)
+    assert two.noise_ess == one.noise_ess
+
+
 @pytest.mark.slow
 def test_restricted_noise_is_not_biased_low():
     # Pure noise around a linear trend, no discrepancy and no emulator
