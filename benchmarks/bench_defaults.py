@@ -35,7 +35,14 @@ Per configuration, in a fresh Python process each (``--one`` runs one):
   share of its time outside LAPACK and BLAS (:func:`_outside_blas`). The
   profiler charges a matrix product written ``A @ B`` to the Python
   function that wrote it, and adds its own cost per Python call, so the
-  share is an upper bound.
+  share is an upper bound;
+- for the same configuration, when ``py-spy`` is installed (``pip install
+  py-spy``; it is not a dependency), the same share sampled from native
+  stacks in another fresh process (:func:`_native_shares`): of the samples
+  of a cold and a warm fit in which a thread works (not waiting for work
+  or for the GIL; imports left out), those inside OpenBLAS (BLAS and
+  LAPACK), those in other native code (numpy's loops and copies, the
+  wrappers, libc) and those in the Python interpreter.
 
 The machine's CPUs and BLAS thread settings are printed first, each
 reference's ratio and every first-to-warm ratio last (with the import
@@ -49,8 +56,10 @@ import json
 import math
 import os
 import pstats
+import shutil
 import subprocess
 import sys
+import tempfile
 import time
 import warnings
 
@@ -190,6 +199,85 @@ def _one(name):
     print(json.dumps(out))
 
 
+def _sampled(name):
+    """A cold and a warm fit of the configuration ``name``, for py-spy."""
+    setup, params = CONFIGS[name]
+    data = _data(setup)
+    for _ in range(2):
+        _, fit = _estimator_and_fit(setup, params, data)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            fit()
+
+
+#: Frames of a thread that waits: for work (a pool's queue) or for the GIL.
+WAITING = ("_queue_SimpleQueue_get_impl", "PyThread_acquire_lock_timed")
+GIL_WAIT = ("pthread_cond_timedwait", "take_gil")
+
+
+def _native_shares(lines):
+    """Shares of py-spy's raw samples (``frame;frame;... count`` per line,
+    ``--native``): inside OpenBLAS, in other native code and in the Python
+    interpreter, of the samples of a working thread outside imports; and
+    their number."""
+    counts = dict.fromkeys(("blas", "native", "python"), 0)
+    for line in lines:
+        stack, _, n = line.rstrip().rpartition(" ")
+        frames = stack.split(";")
+        if not n.isdigit() or any("_find_and_load" in f for f in frames):
+            continue
+        leaf = frames[-1]
+        if any(w in f for f in frames[-4:] for w in WAITING) or any(
+            w in leaf for w in GIL_WAIT
+        ):
+            continue
+        if any("openblas" in f.lower() for f in frames):
+            counts["blas"] += int(n)
+        elif ".py:" in leaf:
+            counts["python"] += int(n)
+        else:
+            counts["native"] += int(n)
+    total = sum(counts.values())
+    return {k: v / total for k, v in counts.items()}, total
+
+
+def _sample_natively(name):
+    """:func:`_native_shares` of ``py-spy record --native`` over
+    :func:`_sampled` in a fresh process, or a sentence saying why not."""
+    spy = shutil.which("py-spy")
+    if spy is None:
+        return "not measured (py-spy is not installed: pip install py-spy)"
+    with tempfile.TemporaryDirectory() as folder:
+        out = os.path.join(folder, "samples.txt")
+        command = [sys.executable, __file__, "--sampled", name]
+        run = subprocess.run(
+            [
+                spy,
+                "record",
+                "--native",
+                "-r",
+                "250",
+                "-f",
+                "raw",
+                "-o",
+                out,
+                "--",
+                *command,
+            ],
+            capture_output=True,
+            text=True,
+        )
+        if run.returncode != 0 or not os.path.exists(out):
+            return f"not measured (py-spy failed: {run.stderr.strip()[-200:]})"
+        with open(out) as f:
+            shares, total = _native_shares(f)
+    return (
+        f"OpenBLAS (BLAS and LAPACK) {shares['blas']:.0%}, other native code "
+        f"{shares['native']:.0%}, the Python interpreter {shares['python']:.0%} "
+        f"({total} samples of working threads, a cold and a warm fit)"
+    )
+
+
 def _line(name, r):
     head = (
         f"{name}: cold {r['cold']:.1f} s (imports {r['imports']:.1f} s), warm "
@@ -217,9 +305,13 @@ def _line(name, r):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--one", choices=list(CONFIGS), help=argparse.SUPPRESS)
+    parser.add_argument("--sampled", choices=list(CONFIGS), help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.one:
         _one(args.one)
+        return
+    if args.sampled:
+        _sampled(args.sampled)
         return
     print(machine_report(), flush=True)
     results = {}
@@ -232,6 +324,8 @@ def main():
         )
         results[name] = json.loads(run.stdout.strip().splitlines()[-1])
         print(_line(name, results[name]), flush=True)
+        if name in PROFILED:
+            print(f"{name}, sampled natively: {_sample_natively(name)}", flush=True)
     for name, reference in RATIOS:
         d, f = results[name], results[reference]
         print(
