@@ -129,16 +129,23 @@ class SamplingCoordinates:
             np.where(scale > 0, scale, 1.0),
         )
 
+    def _unscaled(self, theta):
+        """``v`` of ``theta`` (..., r), before the standardisation, and
+        :meth:`log_jacobian` there."""
+        v = np.array(theta, dtype=float)
+        ends = self.bounded_dims
+        with np.errstate(divide="ignore", invalid="ignore"):
+            v[..., self.log_dims] = np.log(v[..., self.log_dims])
+            log_theta = np.sum(v[..., self.log_dims], axis=-1)
+            v[..., ends], log_slope = soft_ends(
+                v[..., ends], self.low[ends], self.width[ends]
+            )
+        return v, log_theta + np.sum(log_slope, axis=-1)
+
     def to_u(self, theta):
         """Sampling coordinates of ``theta`` (..., r); not finite on or
         outside the ends of a finite support."""
-        u = np.array(theta, dtype=float)
-        ends = self.bounded_dims
-        with np.errstate(divide="ignore", invalid="ignore"):
-            u[..., self.log_dims] = np.log(u[..., self.log_dims])
-            v, _ = soft_ends(u[..., ends], self.low[ends], self.width[ends])
-        u[..., ends] = v
-        return (u - self.u_mean) / self.u_scale
+        return (self._unscaled(theta)[0] - self.u_mean) / self.u_scale
 
     def from_u(self, u):
         """``theta`` of sampling coordinates ``u`` (..., r)."""
@@ -163,11 +170,4 @@ class SamplingCoordinates:
         u_mean`` (the constant ``sum(log u_scale)`` left out): ``log theta``
         summed over the log coordinates, plus the soft ends'
         (:func:`soft_ends`); ``-inf`` on a support's end."""
-        theta = np.asarray(theta, dtype=float)
-        ends = self.bounded_dims
-        with np.errstate(divide="ignore", invalid="ignore"):
-            logged = np.log(theta[..., self.log_dims])
-            x = theta[..., ends].copy()
-            x[..., self.log_dims[ends]] = np.log(x[..., self.log_dims[ends]])
-            _, log_slope = soft_ends(x, self.low[ends], self.width[ends])
-        return np.sum(logged, axis=-1) + np.sum(log_slope, axis=-1)
+        return self._unscaled(theta)[1]
