@@ -19,6 +19,9 @@ True
 [0.0, 6.0, 0.0]
 """
 
+import copy
+from functools import cache
+
 import numpy as np
 from sklearn.gaussian_process.kernels import (
     Hyperparameter,
@@ -43,6 +46,13 @@ def leave_one_out_products(R):
         suffix = np.cumprod(R[..., :0:-1], axis=-1)[..., ::-1]
         out[..., :-1] *= suffix
     return out
+
+
+@cache
+def _hyperparameter_names(cls):
+    """The ``hyperparameter_*`` attributes of a kernel class, in name order
+    (the order of scikit-learn's ``Kernel.hyperparameters``)."""
+    return tuple(name for name in dir(cls) if name.startswith("hyperparameter_"))
 
 
 class DACECorrelation(StationaryKernelMixin, NormalizedKernelMixin, Kernel):
@@ -81,6 +91,41 @@ class DACECorrelation(StationaryKernelMixin, NormalizedKernelMixin, Kernel):
         the roughness times ``c**roughness_power``.
         """
         return 1.0
+
+    @property
+    def hyperparameters(self):
+        """list of Hyperparameter: as scikit-learn's (the ``hyperparameter_*``
+        properties in name order), from the class's names found once instead
+        of a ``dir()`` of the instance at every call."""
+        return [getattr(self, name) for name in _hyperparameter_names(type(self))]
+
+    def clone_with_theta(self, theta):
+        """A copy with the hyperparameters ``exp(theta)``, as scikit-learn's.
+
+        The same kernel as ``sklearn.base.clone`` followed by setting
+        ``theta`` (the same values, to the bit), without the clone's
+        parameter inspection, which likelihood searches would pay at every
+        evaluation: a shallow copy whose arrays are copied.
+        """
+        theta = np.asarray(theta)
+        new = copy.copy(self)
+        for name, value in vars(new).items():
+            if isinstance(value, np.ndarray):
+                setattr(new, name, value.copy())
+        i = 0
+        for hyperparameter in self.hyperparameters:
+            if hyperparameter.fixed:
+                continue
+            k = hyperparameter.n_elements
+            value = np.exp(theta[i : i + k]) if k > 1 else np.exp(theta[i])
+            setattr(new, hyperparameter.name, value)
+            i += k
+        if i != len(theta):
+            raise ValueError(
+                f"theta has {len(theta)} entries; this kernel has {i} free "
+                "log hyperparameters."
+            )
+        return new
 
     # -- family hooks -------------------------------------------------------
     #: True for profiles exp(-ζ), whose product and gradient have a fast form.
