@@ -105,13 +105,15 @@ class DACECorrelation(StationaryKernelMixin, NormalizedKernelMixin, Kernel):
         The same kernel as ``sklearn.base.clone`` followed by setting
         ``theta`` (the same values, to the bit), without the clone's
         parameter inspection, which likelihood searches would pay at every
-        evaluation: a shallow copy whose arrays are copied.
+        evaluation: a shallow copy whose arrays and containers are copied.
         """
         theta = np.asarray(theta)
         new = copy.copy(self)
         for name, value in vars(new).items():
             if isinstance(value, np.ndarray):
                 setattr(new, name, value.copy())
+            elif isinstance(value, list | dict | set):
+                setattr(new, name, copy.deepcopy(value))
         i = 0
         for hyperparameter in self.hyperparameters:
             if hyperparameter.fixed:

@@ -48,6 +48,7 @@ def test_every_family_is_a_dace_correlation(family):
         GeneralizedExp(roughness=2.0, power=1.5, power_bounds="fixed"),
         Spline(roughness=[0.3, 0.4, 0.2]),
         Gauss(roughness=[2.0]),  # one element: scikit-learn makes it a scalar
+        Gauss(roughness=[0.5, 2.0, 1.0], roughness_bounds="fixed"),  # a list
     ],
 )
 def test_clone_with_theta_is_scikit_learns_clone_to_the_bit(kernel):
@@ -76,6 +77,8 @@ def test_clone_with_theta_is_scikit_learns_clone_to_the_bit(kernel):
     for name, value in vars(ours).items():
         if isinstance(value, np.ndarray):
             assert not np.shares_memory(value, getattr(kernel, name)), name
+        elif isinstance(value, list):
+            assert value is not getattr(kernel, name), name
     with pytest.raises(ValueError, match="theta has"):
         kernel.clone_with_theta(np.zeros(len(theta) + 1))
 
